@@ -1,0 +1,18 @@
+"""thesis_rbd: validated rigid-body simulation in Python.
+
+Collision detection after the JAOC design (sweep-and-prune broad phase, OBBTree narrow phase,
+exact contact report) and quaternion rigid-body dynamics, cross-checked against python-fcl and
+pybullet. Public names only; see DESIGN.md for the contract.
+"""
+
+from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
+
+__all__ = [
+    "MassProperties",
+    "TriangleMesh",
+    "load_mesh",
+    "mass_properties",
+    "shapes",
+]
+
+__version__ = "0.1.0"

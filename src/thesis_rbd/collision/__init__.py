@@ -1,0 +1,1 @@
+"""Collision detection: OBBTree narrow phase, sweep-and-prune broad phase, contact reports."""

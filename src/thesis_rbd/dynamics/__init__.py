@@ -1,0 +1,1 @@
+"""Rigid-body dynamics: body arrays, forces, integrators, contact response."""

@@ -1,0 +1,1 @@
+"""Validation campaign: cross-checks, accuracy/stability studies and benchmarks."""
