@@ -179,7 +179,8 @@ def load_mesh(path: str | Path) -> TriangleMesh:
     Parameters
     ----------
     path : str or Path
-        The mesh file; scenes with several geometries are concatenated into one mesh.
+        The mesh file; scenes with several geometries are concatenated into one mesh, and
+        coincident vertices are welded.
 
     Raises
     ------
@@ -197,4 +198,7 @@ def load_mesh(path: str | Path) -> TriangleMesh:
         raise ValueError(f"cannot read mesh file {path}: {exc}") from exc
     if not hasattr(loaded, "faces") or len(loaded.faces) == 0:
         raise ValueError(f"mesh file {path} holds no triangles")
+    # STL and some OBJ exports store each triangle's corners separately; weld identical
+    # corners so that a closed surface reads as closed (no face is removed or reordered).
+    loaded.merge_vertices()
     return TriangleMesh.from_trimesh(loaded)
