@@ -119,7 +119,7 @@ def test_load_mesh_errors(tmp_path):
         rbd.load_mesh(tmp_path / "missing.obj")
     bad = tmp_path / "bad.stl"
     bad.write_text("this is not a mesh")
-    with pytest.raises(ValueError, match="bad.stl"):
+    with pytest.raises(ValueError, match=r"bad\.stl"):
         rbd.load_mesh(bad)
 
 

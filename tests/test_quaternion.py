@@ -104,7 +104,7 @@ def test_batch_shapes_and_broadcast():
     ],
 )
 def test_bad_shapes_raise(func, args):
-    with pytest.raises(ValueError, match="shape|pair"):
+    with pytest.raises(ValueError, match=r"shape|pair"):
         func(*args)
 
 
