@@ -5,14 +5,18 @@ exact contact report) and quaternion rigid-body dynamics, cross-checked against 
 pybullet. Public names only; see DESIGN.md for the contract.
 """
 
+from thesis_rbd import spatial
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
+from thesis_rbd.world import World
 
 __all__ = [
     "MassProperties",
     "TriangleMesh",
+    "World",
     "load_mesh",
     "mass_properties",
     "shapes",
+    "spatial",
 ]
 
 __version__ = "0.1.0"

@@ -1,0 +1,116 @@
+"""Rigid bodies stored as arrays (structure of arrays), the state of thesis 3.2.
+
+Each body i has the state (x_i, q_i, P_i, L_i): world position of its centre of mass, (x, y, z,
+w) orientation of its body frame, linear momentum and angular momentum (world frame). Constant
+per body: the inverse mass and the inverse inertia tensor in the body frame, both zero for a
+static body (thesis 6.1.1), so every formula treats static bodies as infinitely heavy without a
+branch. Derived quantities follow the thesis:
+
+    v = P / M,    I^-1 = R I_body^-1 R^T,    w = I^-1 L.
+
+The body frame is the mesh frame translated to the centre of mass: a mesh vertex p maps to
+world as R (p - c) + x, where c is the mesh-frame centre of mass.
+
+Arrays grow by doubling so adding n bodies one by one costs O(n) copies in total; the public
+views (``positions`` etc.) cover the first ``count`` rows and are replaced when capacity grows.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+__all__ = ["BodyArrays"]
+
+_INITIAL_CAPACITY = 8
+
+
+class BodyArrays:
+    """Growable arrays of per-body constants and state.
+
+    Attributes (first ``count`` rows are live)
+    ------------------------------------------
+    position : (n, 3) float64
+        World position of the centre of mass x.
+    orientation : (n, 4) float64
+        Unit quaternion q, (x, y, z, w), body frame to world.
+    linear_momentum : (n, 3) float64
+        P, world frame.
+    angular_momentum : (n, 3) float64
+        L about the centre of mass, world frame.
+    inverse_mass : (n,) float64
+        1 / M; 0 for static bodies.
+    inverse_inertia_body : (n, 3, 3) float64
+        I_body^-1 in the body frame; 0 for static bodies.
+    mass : (n,) float64
+        M (inf for static bodies).
+    inertia_body : (n, 3, 3) float64
+        I_body about the centre of mass in the body frame (zero for static bodies).
+    center_of_mass_local : (n, 3) float64
+        c, the centre of mass in the mesh frame.
+    size : (n,) float64
+        Bounding-sphere radius of the mesh about its centre of mass.
+    restitution, friction : (n,) float64
+        Material coefficients, combined per contact by the rules of DESIGN.md.
+    static : (n,) bool
+        True for immovable bodies.
+    """
+
+    _FIELDS: ClassVar[dict[str, tuple[tuple[int, ...], type]]] = {
+        "position": ((3,), np.float64),
+        "orientation": ((4,), np.float64),
+        "linear_momentum": ((3,), np.float64),
+        "angular_momentum": ((3,), np.float64),
+        "inverse_mass": ((), np.float64),
+        "inverse_inertia_body": ((3, 3), np.float64),
+        "mass": ((), np.float64),
+        "inertia_body": ((3, 3), np.float64),
+        "center_of_mass_local": ((3,), np.float64),
+        "size": ((), np.float64),
+        "restitution": ((), np.float64),
+        "friction": ((), np.float64),
+        "static": ((), np.bool_),
+    }
+
+    def __init__(self):
+        self.count = 0
+        self.capacity = _INITIAL_CAPACITY
+        self._storage = {
+            name: np.zeros((self.capacity, *shape), dtype=dtype)
+            for name, (shape, dtype) in self._FIELDS.items()
+        }
+        self.meshes: list = []
+        self.names: list[str] = []
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        storage = self.__dict__.get("_storage")
+        if storage is not None and name in storage:
+            return storage[name][: self.count]
+        raise AttributeError(name)
+
+    def full(self, name: str) -> np.ndarray:
+        """The whole capacity-sized array of a field (kernels index only the live rows)."""
+        return self._storage[name]
+
+    def _grow(self) -> None:
+        self.capacity *= 2
+        for name, old in self._storage.items():
+            new = np.zeros((self.capacity, *old.shape[1:]), dtype=old.dtype)
+            new[: self.count] = old[: self.count]
+            self._storage[name] = new
+
+    def append(self, mesh, name: str, **values) -> int:
+        """Append one body; ``values`` gives every field of ``_FIELDS``. Returns its index."""
+        missing = set(self._FIELDS) - set(values)
+        if missing:
+            raise ValueError(f"missing body fields: {sorted(missing)}")
+        if self.count == self.capacity:
+            self._grow()
+        index = self.count
+        for field, value in values.items():
+            self._storage[field][index] = value
+        self.count += 1
+        self.meshes.append(mesh)
+        self.names.append(name)
+        return index

@@ -1,0 +1,348 @@
+"""The world: bodies, the force model, and a step that reads as its list of stages.
+
+A step runs only the stages the scene calls for (``World.stages``), each timed into
+``World.profile``:
+
+    forces -> integrate
+
+(the collision stages "bounds", "broad_phase", "narrow_phase", "contacts" and "sleep" join the
+pipeline with the collision issues). The plan is derived from the scene and refreshed whenever
+bodies or forces change, so a world without gravity or applied forces never gathers forces and
+a world of static bodies never integrates.
+"""
+
+from __future__ import annotations
+
+import math
+from time import perf_counter
+
+import numpy as np
+
+from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
+from thesis_rbd.dynamics.bodies import BodyArrays
+from thesis_rbd.dynamics.forces import (
+    AppliedForces,
+    DragCoefficients,
+    PointForces,
+    world_arm_to_body,
+)
+from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
+from thesis_rbd.geometry.mass import mass_properties
+from thesis_rbd.geometry.mesh import TriangleMesh
+from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate, quat_to_matrix
+
+__all__ = ["STAGE_NAMES", "World"]
+
+# Every stage a world can run, in pipeline order; ``World.profile`` has an entry for each so
+# that a skipped stage shows zero calls.
+STAGE_NAMES = ("forces", "integrate", "bounds", "broad_phase", "narrow_phase", "contacts", "sleep")
+
+
+class World:
+    """A rigid-body world stepped at a fixed time step.
+
+    Parameters
+    ----------
+    dt : float
+        Time step (s), > 0.
+    gravity : (3,) array_like
+        Gravitational acceleration (m/s^2); (0, 0, 0) by default (no effect is on by default).
+    integrator : {"euler", "symplectic_euler", "midpoint", "rk4"}
+        ODE method for free motion.
+    linear_drag, quadratic_drag, angular_drag : float
+        Air resistance on every dynamic body: F = -k1 v - k2 |v| v, tau = -ka w.
+    """
+
+    def __init__(
+        self,
+        dt: float = 1.0 / 240.0,
+        gravity=(0.0, 0.0, 0.0),
+        integrator: str = "rk4",
+        linear_drag: float = 0.0,
+        quadratic_drag: float = 0.0,
+        angular_drag: float = 0.0,
+    ):
+        self.dt = as_positive_scalar(dt, "dt")
+        self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
+        if integrator not in INTEGRATORS:
+            raise ValueError(
+                f"unknown integrator {integrator!r}; choose one of {sorted(INTEGRATORS)}"
+            )
+        self.integrator = integrator
+        self.drag = DragCoefficients(linear_drag, quadratic_drag, angular_drag)
+        self._drag_array = np.array([linear_drag, quadratic_drag, angular_drag], dtype=np.float64)
+        self.time = 0.0
+        self.bodies = BodyArrays()
+        self.applied_forces = AppliedForces()
+        self.profile = {name: {"calls": 0, "seconds": 0.0} for name in STAGE_NAMES}
+        self._external_force = np.zeros((0, 3))
+        self._point_forces = PointForces.empty(0)
+        self._pipeline: list[tuple[str, object]] = []
+        self._plan_stages()
+
+    # ------------------------------------------------------------------ building the scene
+    def add_body(
+        self,
+        mesh: TriangleMesh,
+        mass: float | None = None,
+        density: float | None = None,
+        position=(0.0, 0.0, 0.0),
+        orientation=(0.0, 0.0, 0.0, 1.0),
+        linear_velocity=(0.0, 0.0, 0.0),
+        angular_velocity=(0.0, 0.0, 0.0),
+        restitution: float = 0.0,
+        friction: float = 0.0,
+        static: bool = False,
+        name: str | None = None,
+    ) -> int:
+        """Add a body and return its index.
+
+        Parameters
+        ----------
+        mesh : TriangleMesh
+            Shape in its own (mesh) frame; closed for a dynamic body.
+        mass, density : float, optional
+            Give at most one; neither means density 1.0. Ignored for static bodies.
+        position : (3,) array_like
+            World position of the centre of mass (of the mesh frame origin for a static
+            body whose mesh is open).
+        orientation : (4,) array_like
+            (x, y, z, w) rotation of the mesh frame into the world; normalised.
+        linear_velocity, angular_velocity : (3,) array_like
+            Initial v and w, world frame.
+        restitution : float in [0, 1]
+            Combined per contact as the product of the two bodies' values.
+        friction : float >= 0
+            Combined per contact as the geometric mean of the two bodies' values.
+        static : bool
+            An immovable body (zero inverse mass and inertia).
+        name : str, optional
+            Label used in trajectories; "body<i>" by default.
+        """
+        if not isinstance(mesh, TriangleMesh):
+            raise ValueError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
+        if mass is not None and density is not None:
+            raise ValueError("give mass or density, not both")
+        position = as_finite_array(position, "position", shape=(3,))
+        q = as_unit_quaternion(orientation)
+        v = as_finite_array(linear_velocity, "linear_velocity", shape=(3,))
+        w = as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
+        restitution = float(restitution)
+        if not 0.0 <= restitution <= 1.0:
+            raise ValueError(f"restitution must lie in [0, 1], got {restitution!r}")
+        friction = float(friction)
+        if not (math.isfinite(friction) and friction >= 0.0):
+            raise ValueError(f"friction must be finite and >= 0, got {friction!r}")
+
+        if static:
+            center = (
+                mass_properties(mesh).center_of_mass
+                if mesh.is_closed and mesh.is_consistently_oriented
+                else np.zeros(3)
+            )
+            m, inv_m = math.inf, 0.0
+            inertia, inv_inertia = np.zeros((3, 3)), np.zeros((3, 3))
+            P, L = np.zeros(3), np.zeros(3)
+        else:
+            if mass is not None:
+                props = mass_properties(mesh, mass=as_positive_scalar(mass, "mass"))
+            else:
+                props = mass_properties(mesh, density=1.0 if density is None else density)
+            center, m, inertia = props.center_of_mass, props.mass, props.inertia
+            inv_m, inv_inertia = 1.0 / m, np.linalg.inv(inertia)
+            R = quat_to_matrix(q)
+            P = m * v
+            L = R @ inertia @ R.T @ w
+        index = self.bodies.append(
+            mesh,
+            name if name is not None else f"body{self.bodies.count}",
+            position=position,
+            orientation=q,
+            linear_momentum=P,
+            angular_momentum=L,
+            inverse_mass=inv_m,
+            inverse_inertia_body=inv_inertia,
+            mass=m,
+            inertia_body=inertia,
+            center_of_mass_local=center,
+            size=float(np.linalg.norm(mesh.vertices - center, axis=1).max()),
+            restitution=restitution,
+            friction=friction,
+            static=bool(static),
+        )
+        self._plan_stages()
+        return index
+
+    def apply_force(self, body: int, force, point=None, duration: float | None = None) -> None:
+        """Apply a world-frame force to a body.
+
+        Parameters
+        ----------
+        body : int
+            Body index.
+        force : (3,) array_like
+            Force (N), fixed in the world frame.
+        point : (3,) array_like, optional
+            World point of application now; it is attached to the body, so the torque arm
+            turns with it. None applies the force through the centre of mass (no torque).
+        duration : float, optional
+            Seconds the force lasts (it delivers exactly force * duration of impulse); None
+            means until the end of the run.
+        """
+        body = self._check_body(body)
+        force = as_finite_array(force, "force", shape=(3,))
+        if point is None:
+            arm = np.zeros(3)
+        else:
+            point = as_finite_array(point, "point", shape=(3,))
+            b = self.bodies
+            arm = world_arm_to_body(point, b.position[body], b.orientation[body])
+        remaining = math.inf if duration is None else as_positive_scalar(duration, "duration")
+        self.applied_forces.add(body, force, arm, remaining)
+        self._plan_stages()
+
+    # ------------------------------------------------------------------ stepping
+    @property
+    def stages(self) -> list[str]:
+        """Names of the stages this scene needs, in pipeline order."""
+        return [name for name, _ in self._pipeline]
+
+    def _plan_stages(self) -> None:
+        """Derive the pipeline from the scene: only the effects it calls for."""
+        b = self.bodies
+        dynamic = bool(b.count) and not bool(np.all(b.static))
+        gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
+        pipeline = []
+        if gathers_forces:
+            pipeline.append(("forces", self._stage_forces))
+        if dynamic:
+            pipeline.append(("integrate", self._stage_integrate))
+        self._pipeline = pipeline
+        if not gathers_forces:
+            self._external_force = np.zeros((b.count, 3))
+            self._point_forces = PointForces.empty(b.count)
+
+    def step(self, n: int = 1) -> None:
+        """Advance the world by ``n`` steps of ``dt``."""
+        if int(n) != n or n < 0:
+            raise ValueError(f"n must be a non-negative integer, got {n!r}")
+        profile = self.profile
+        for _ in range(int(n)):
+            for name, stage in self._pipeline:
+                start = perf_counter()
+                stage()
+                entry = profile[name]
+                entry["seconds"] += perf_counter() - start
+                entry["calls"] += 1
+            self.time += self.dt
+        if self._pipeline and self._pipeline[0][0] == "forces" and not self._forces_remain():
+            self._plan_stages()
+
+    def _forces_remain(self) -> bool:
+        return bool(np.any(self.gravity)) or len(self.applied_forces) > 0
+
+    def _stage_forces(self) -> None:
+        """Gather gravity and the applied forces active this step."""
+        b = self.bodies
+        self._external_force, self._point_forces = self.applied_forces.gather(
+            self.dt, b.count, b.mass, self.gravity, b.static
+        )
+
+    def _stage_integrate(self) -> None:
+        """Advance free motion of every dynamic body by one step."""
+        b = self.bodies
+        pf = self._point_forces
+        integrate_bodies(
+            INTEGRATORS[self.integrator],
+            self.dt,
+            b.count,
+            b.full("static"),
+            b.full("position"),
+            b.full("orientation"),
+            b.full("linear_momentum"),
+            b.full("angular_momentum"),
+            b.full("inverse_mass"),
+            b.full("inverse_inertia_body"),
+            self._external_force,
+            self._drag_array,
+            pf.start,
+            pf.arm,
+            pf.force,
+        )
+
+    # ------------------------------------------------------------------ accessors
+    def _check_body(self, body) -> int:
+        if isinstance(body, bool) or int(body) != body or not 0 <= body < self.bodies.count:
+            raise ValueError(f"no body {body!r}: the world has {self.bodies.count} bodies")
+        return int(body)
+
+    def __len__(self) -> int:
+        return self.bodies.count
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n, 3) read-only view of the centres of mass (world)."""
+        view = self.bodies.position.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def orientations(self) -> np.ndarray:
+        """(n, 4) read-only view of the (x, y, z, w) orientations."""
+        view = self.bodies.orientation.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.bodies.names)
+
+    def position(self, body: int) -> np.ndarray:
+        """(3,) world centre of mass of a body."""
+        return self.bodies.position[self._check_body(body)].copy()
+
+    def orientation(self, body: int) -> np.ndarray:
+        """(4,) (x, y, z, w) orientation of a body."""
+        return self.bodies.orientation[self._check_body(body)].copy()
+
+    def linear_momentum(self, body: int) -> np.ndarray:
+        """(3,) P = M v (world)."""
+        return self.bodies.linear_momentum[self._check_body(body)].copy()
+
+    def angular_momentum(self, body: int) -> np.ndarray:
+        """(3,) L about the centre of mass (world)."""
+        return self.bodies.angular_momentum[self._check_body(body)].copy()
+
+    def linear_velocity(self, body: int) -> np.ndarray:
+        """(3,) v = P / M (world); zero for a static body."""
+        i = self._check_body(body)
+        return self.bodies.linear_momentum[i] * self.bodies.inverse_mass[i]
+
+    def angular_velocity(self, body: int) -> np.ndarray:
+        """(3,) w = R I_body^-1 R^T L (world); zero for a static body."""
+        i = self._check_body(body)
+        R = quat_to_matrix(self.bodies.orientation[i])
+        return R @ self.bodies.inverse_inertia_body[i] @ R.T @ self.bodies.angular_momentum[i]
+
+    def transform(self, body: int) -> np.ndarray:
+        """(4, 4) rigid transform from the body's mesh frame to the world."""
+        i = self._check_body(body)
+        b = self.bodies
+        T = np.eye(4)
+        T[:3, :3] = quat_to_matrix(b.orientation[i])
+        T[:3, 3] = b.position[i] - T[:3, :3] @ b.center_of_mass_local[i]
+        return T
+
+    def kinetic_energy(self) -> float:
+        """Total kinetic energy sum(P^2 / 2M + L.w / 2) of the dynamic bodies (J)."""
+        b = self.bodies
+        linear = 0.5 * np.einsum("ij,ij,i->", b.linear_momentum, b.linear_momentum, b.inverse_mass)
+        L_body = quat_rotate(quat_conjugate(b.orientation), b.angular_momentum).reshape(-1, 3)
+        angular = 0.5 * np.einsum("ij,ijk,ik->", L_body, b.inverse_inertia_body, L_body)
+        return float(linear + angular)
+
+    def potential_energy(self) -> float:
+        """Gravitational potential energy -sum(M g . x) of the dynamic bodies (J)."""
+        b = self.bodies
+        dynamic = ~b.static
+        return float(-np.sum(b.mass[dynamic] * (b.position[dynamic] @ self.gravity)))

@@ -1,0 +1,173 @@
+"""World: body set-up, applied forces and torques, stage planning, accessors, bad input."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import thesis_rbd as rbd
+
+CUBE = rbd.shapes.box((1.0, 1.0, 1.0))  # I = m/6 about every axis
+
+
+def test_position_is_the_centre_of_mass_and_transform_maps_the_mesh():
+    offset_box = rbd.TriangleMesh(CUBE.vertices + [5.0, 0.0, 0.0], CUBE.faces)
+    world = rbd.World()
+    q = Rotation.from_euler("z", 90, degrees=True).as_quat()
+    body = world.add_body(offset_box, mass=1.0, position=(0, 0, 1), orientation=q)
+    T = world.transform(body)
+    # the mesh's centre of mass (5, 0, 0) lands on the body position
+    np.testing.assert_allclose(T @ [5, 0, 0, 1], [0, 0, 1, 1], atol=1e-12)
+    np.testing.assert_allclose(world.positions, [[0, 0, 1]])
+    assert not world.positions.flags.writeable
+
+
+def test_initial_velocities_round_trip_through_momenta():
+    world = rbd.World()
+    q = Rotation.from_euler("xyz", [0.3, -0.2, 1.0]).as_quat()
+    body = world.add_body(
+        rbd.shapes.box((1, 2, 3)),
+        density=3.0,
+        orientation=q,
+        linear_velocity=(1, 2, 3),
+        angular_velocity=(0.5, -0.25, 2.0),
+    )
+    np.testing.assert_allclose(world.linear_velocity(body), [1, 2, 3], rtol=1e-14)
+    np.testing.assert_allclose(world.angular_velocity(body), [0.5, -0.25, 2.0], rtol=1e-12)
+    m = 18.0
+    np.testing.assert_allclose(world.linear_momentum(body), m * np.array([1, 2, 3]), rtol=1e-14)
+    R = Rotation.from_quat(q).as_matrix()
+    I_world = R @ (m / 12 * np.diag([13, 10, 5])) @ R.T
+    np.testing.assert_allclose(
+        world.angular_momentum(body), I_world @ [0.5, -0.25, 2.0], rtol=1e-12
+    )
+    expected_energy = 0.5 * m * 14 + 0.5 * np.array([0.5, -0.25, 2.0]) @ I_world @ [0.5, -0.25, 2.0]
+    assert world.kinetic_energy() == pytest.approx(expected_energy, rel=1e-12)
+
+
+def test_force_with_duration_delivers_exact_impulse():
+    """A 0.01 s push at dt = 1/240 ends mid-step; the impulse must still be F * duration."""
+    world = rbd.World(dt=1 / 240)
+    body = world.add_body(CUBE, mass=2.0)
+    world.apply_force(body, (3.0, 0.0, 0.0), duration=0.01)
+    assert world.stages == ["forces", "integrate"]
+    world.step(10)
+    np.testing.assert_allclose(world.linear_momentum(body), [0.03, 0, 0], rtol=1e-12)
+    # the force has expired: the forces stage leaves the pipeline
+    assert world.stages == ["integrate"]
+    calls = world.profile["forces"]["calls"]
+    world.step(5)
+    assert world.profile["forces"]["calls"] == calls
+
+
+def test_force_at_a_point_gives_torque_r_cross_f():
+    world = rbd.World(dt=1 / 1000)
+    body = world.add_body(CUBE, mass=6.0)  # I = 1 about every axis
+    world.apply_force(body, (0.0, 2.0, 0.0), point=(0.5, 0.0, 0.0), duration=0.001)
+    world.step()
+    # L = r x F * duration = (0.5, 0, 0) x (0, 2, 0) * 0.001
+    np.testing.assert_allclose(world.angular_momentum(body), [0, 0, 0.001], rtol=1e-9)
+    np.testing.assert_allclose(world.linear_momentum(body), [0, 0.002, 0], rtol=1e-12)
+
+
+def test_point_force_arm_turns_with_the_body():
+    """A constant world force at a body-fixed point: the torque follows the rotated arm."""
+    world = rbd.World(dt=1 / 240)
+    q = Rotation.from_euler("z", 90, degrees=True).as_quat()
+    body = world.add_body(CUBE, mass=6.0, orientation=q)
+    # world point (0, 0.5, 0) is body-frame arm (0.5, 0, 0) after the 90 degree turn
+    world.apply_force(body, (0.0, 0.0, 1.0), point=(0.0, 0.5, 0.0), duration=1 / 240)
+    world.step()
+    torque = np.cross([0.0, 0.5, 0.0], [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(world.angular_momentum(body), torque / 240, rtol=1e-4, atol=1e-15)
+
+
+def test_static_bodies_never_move_nor_count_in_energy():
+    world = rbd.World(gravity=(0, 0, -9.81))
+    floor = world.add_body(rbd.shapes.box((10, 10, 1)), static=True, position=(0, 0, -0.5))
+    assert world.stages == []  # nothing dynamic: no stage at all
+    ball = world.add_body(rbd.shapes.icosphere(0.5, 2), mass=1.0, position=(0, 0, 2))
+    assert world.stages == ["forces", "integrate"]
+    world.step(24)
+    np.testing.assert_allclose(world.position(floor), [0, 0, -0.5])
+    np.testing.assert_allclose(world.linear_velocity(floor), 0)
+    assert world.potential_energy() == pytest.approx(9.81 * world.position(ball)[2], rel=1e-12)
+
+
+def test_stage_plan_follows_the_scene_and_skipped_stages_are_never_called():
+    world = rbd.World()
+    world.add_body(CUBE, mass=1.0, angular_velocity=(0, 0, 1))
+    assert world.stages == ["integrate"]
+    world.step(3)
+    assert world.profile["forces"]["calls"] == 0
+    assert world.profile["integrate"]["calls"] == 3
+    assert set(world.profile) >= {"forces", "integrate", "bounds", "broad_phase", "narrow_phase"}
+
+
+def test_static_open_mesh_is_allowed_dynamic_open_mesh_is_not():
+    plate = rbd.TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    world = rbd.World()
+    world.add_body(plate, static=True)
+    with pytest.raises(ValueError, match="open"):
+        world.add_body(plate, mass=1.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"mass": 0.0}, "mass"),
+        ({"mass": -1.0}, "mass"),
+        ({"density": -2.0}, "density"),
+        ({"mass": 1.0, "density": 1.0}, "not both"),
+        ({"position": (0, np.nan, 0)}, "position"),
+        ({"position": (0, 0)}, "position must have shape"),
+        ({"orientation": (0, 0, 0, 0)}, "zero length"),
+        ({"linear_velocity": (np.inf, 0, 0)}, "linear_velocity"),
+        ({"restitution": 1.5}, "restitution"),
+        ({"friction": -0.1}, "friction"),
+    ],
+)
+def test_add_body_rejects_bad_input(kwargs, message):
+    world = rbd.World()
+    with pytest.raises(ValueError, match=message):
+        world.add_body(CUBE, **kwargs)
+    assert len(world) == 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"dt": 0.0}, "dt"),
+        ({"dt": np.nan}, "dt"),
+        ({"gravity": (0, 0)}, "gravity"),
+        ({"integrator": "verlet"}, "unknown integrator"),
+        ({"linear_drag": -1.0}, "drag"),
+    ],
+)
+def test_world_rejects_bad_options(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        rbd.World(**kwargs)
+
+
+def test_apply_force_and_accessors_reject_bad_input():
+    world = rbd.World()
+    body = world.add_body(CUBE, mass=1.0)
+    with pytest.raises(ValueError, match="no body"):
+        world.apply_force(3, (1, 0, 0))
+    with pytest.raises(ValueError, match="force"):
+        world.apply_force(body, (1, np.nan, 0))
+    with pytest.raises(ValueError, match="duration"):
+        world.apply_force(body, (1, 0, 0), duration=-1.0)
+    with pytest.raises(ValueError, match="no body"):
+        world.position(-1)
+    with pytest.raises(ValueError, match="non-negative"):
+        world.step(-2)
+
+
+def test_many_bodies_grow_the_arrays_without_losing_state():
+    world = rbd.World()
+    for i in range(40):
+        world.add_body(CUBE, mass=1.0, position=(i, 0, 0), linear_velocity=(0, i, 0))
+    world.step(10)
+    np.testing.assert_allclose(world.positions[:, 0], np.arange(40))
+    np.testing.assert_allclose(world.positions[:, 1], np.arange(40) * world.time, rtol=1e-12)
+    assert world.names[7] == "body7"
