@@ -139,7 +139,7 @@ def test_quaternion_norm_after_a_million_steps_of_fast_spin():
 
 
 def test_symplectic_euler_updates_momentum_before_position():
-    """Discrete closed form of semi-implicit Euler in free fall: x_N = x0 + v0 T + g h^2 N(N+1)/2."""
+    """Semi-implicit Euler in free fall, discrete closed form: x_N = x0 + v0 T + g h^2 N(N+1)/2."""
     dt, steps = 0.01, 50
     world = rbd.World(dt=dt, gravity=G, integrator="symplectic_euler")
     body = world.add_body(rbd.shapes.box((1, 1, 1)), mass=1.0, linear_velocity=(1, 0, 2))
