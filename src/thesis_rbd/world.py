@@ -75,7 +75,8 @@ class World:
         self.bodies = BodyArrays()
         self.applied_forces = AppliedForces()
         self.profile = {name: {"calls": 0, "seconds": 0.0} for name in STAGE_NAMES}
-        self._external_force = np.zeros((0, 3))
+        self._gravity_force = np.zeros((0, 3))
+        self._external_force = self._gravity_force
         self._point_forces = PointForces.empty(0)
         self._pipeline: list[tuple[str, object]] = []
         self._plan_stages()
@@ -218,9 +219,11 @@ class World:
         if dynamic:
             pipeline.append(("integrate", self._stage_integrate))
         self._pipeline = pipeline
-        if not gathers_forces:
-            self._external_force = np.zeros((b.count, 3))
-            self._point_forces = PointForces.empty(b.count)
+        self._stale_plan = False
+        # M g is constant between scene changes: computed here, not every step
+        self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
+        self._external_force = self._gravity_force
+        self._point_forces = PointForces.empty(b.count)
 
     def step(self, n: int = 1) -> None:
         """Advance the world by ``n`` steps of ``dt``."""
@@ -235,18 +238,19 @@ class World:
                 entry["seconds"] += perf_counter() - start
                 entry["calls"] += 1
             self.time += self.dt
-        if self._pipeline and self._pipeline[0][0] == "forces" and not self._forces_remain():
-            self._plan_stages()
-
-    def _forces_remain(self) -> bool:
-        return bool(np.any(self.gravity)) or len(self.applied_forces) > 0
+            if self._stale_plan:
+                self._plan_stages()
 
     def _stage_forces(self) -> None:
         """Gather gravity and the applied forces active this step."""
-        b = self.bodies
-        self._external_force, self._point_forces = self.applied_forces.gather(
-            self.dt, b.count, b.mass, self.gravity, b.static
+        applied = self.applied_forces
+        if len(applied) == 0:
+            return  # gravity alone: _external_force already holds M g
+        self._external_force, self._point_forces = applied.gather(
+            self.dt, self._gravity_force, self.bodies.static
         )
+        if len(applied) == 0:
+            self._stale_plan = True  # the last applied force ran out: replan after this step
 
     def _stage_integrate(self) -> None:
         """Advance free motion of every dynamic body by one step."""

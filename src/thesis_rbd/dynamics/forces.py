@@ -108,39 +108,29 @@ class AppliedForces:
         self.arm = np.vstack([self.arm, arm])
         self.remaining = np.append(self.remaining, duration)
 
-    def gather(
-        self, dt: float, body_count: int, mass: np.ndarray, gravity: np.ndarray, static
-    ) -> tuple[np.ndarray, PointForces]:
+    def gather(self, dt: float, base_force: np.ndarray, static) -> tuple[np.ndarray, PointForces]:
         """Forces of the coming step, then advance every duration by ``dt``.
 
         Parameters
         ----------
         dt : float
             Step length (s).
-        body_count : int
-            Number of bodies n.
-        mass : (n,) float64
-            Body masses (static bodies are skipped through ``static``).
-        gravity : (3,) float64
-            Gravitational acceleration (m/s^2).
+        base_force : (n, 3) float64
+            The constant part, M g per dynamic body (world frame); not modified.
         static : (n,) bool
             Static bodies get no force.
 
         Returns
         -------
         external_force : (n, 3) float64
-            M g plus the sum of the active applied forces of each body (world frame).
+            ``base_force`` plus the sum of the active applied forces of each body.
         point_forces : PointForces
             The active applied forces with a non-zero arm, for the torque.
         """
-        external_force = np.zeros((body_count, 3))
-        dynamic = ~static
-        external_force[dynamic] = mass[dynamic, None] * gravity
-        if len(self) == 0:
-            return external_force, PointForces.empty(body_count)
-
+        body_count = len(base_force)
+        external_force = base_force.copy()
         share = np.clip(self.remaining, 0.0, dt) / dt
-        active = (share > 0) & dynamic[self.body]
+        active = (share > 0) & ~static[self.body]
         scaled = self.force * share[:, None]
         np.add.at(external_force, self.body[active], scaled[active])
 
