@@ -1,0 +1,228 @@
+"""Contact impulses against analytic outcomes, conservation laws and the exact LCP solution."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from thesis_rbd.dynamics.contact_solver import (
+    contact_basis,
+    project_onto_polygon,
+    relative_velocity,
+    solve_exact,
+    solve_pgs,
+)
+
+SOLVERS = ["exact", "pgs"]
+
+
+def make_problem(body_a, body_b, points, normals, positions, masses, inertias):
+    """Contact and body tuples for the kernels; mass inf marks a static body."""
+    body_a = np.asarray(body_a, np.int64)
+    body_b = np.asarray(body_b, np.int64)
+    points = np.asarray(points, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    positions = np.asarray(positions, float).reshape(-1, 3)
+    masses = np.asarray(masses, float)
+    inverse_mass = np.where(np.isinf(masses), 0.0, 1.0 / masses)
+    inverse_inertia = np.array(
+        [
+            np.zeros((3, 3)) if np.isinf(m) else np.linalg.inv(I)
+            for m, I in zip(masses, inertias, strict=True)
+        ]
+    )
+    contacts = (
+        body_a,
+        body_b,
+        points - positions[body_a],
+        points - positions[body_b],
+        contact_basis(normals),
+    )
+    return contacts, inverse_mass, inverse_inertia
+
+
+def solve(
+    solver,
+    contacts,
+    bias,
+    friction,
+    velocity,
+    angular_velocity,
+    inverse_mass,
+    inverse_inertia,
+    sides=8,
+):
+    bodies = (velocity, angular_velocity, inverse_mass, inverse_inertia)
+    impulse = np.zeros((len(bias), 3))
+    if solver == "exact":
+        assert solve_exact(sides, contacts, bias, friction, bodies, impulse) == 0
+    else:
+        solve_pgs(500, sides, contacts, bias, friction, bodies, impulse)
+    return impulse
+
+
+def cube_on_floor(e, velocity_z=-2.0, spin=(0, 0, 0), tangential=(0, 0), mu=0.0):
+    """Unit cube (mass 1) touching a static floor (body 1) at its four bottom corners."""
+    corners = np.array([[x, y, -0.5] for x in (-0.5, 0.5) for y in (-0.5, 0.5)])
+    contacts, im, ii = make_problem(
+        [0] * 4,
+        [1] * 4,
+        corners,
+        [[0, 0, 1]] * 4,
+        [[0, 0, 0], [0, 0, -0.5]],
+        [1.0, np.inf],
+        [np.eye(3) / 6, np.eye(3)],
+    )
+    v = np.array([[tangential[0], tangential[1], velocity_z], [0, 0, 0]], float)
+    w = np.array([spin, [0, 0, 0]], float)
+    bodies = (v, w, im, ii)
+    u_n = np.array([relative_velocity(k, 0, contacts, bodies) for k in range(4)])
+    bias = e * np.minimum(u_n, 0.0)
+    return contacts, bias, np.full(4, mu), v, w, im, ii
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+@pytest.mark.parametrize("e", [0.0, 0.5, 0.8, 1.0])
+def test_cube_landing_flat_bounces_with_e_and_no_spin(solver, e):
+    contacts, bias, mu, v, w, im, ii = cube_on_floor(e)
+    impulse = solve(solver, contacts, bias, mu, v, w, im, ii)
+    np.testing.assert_allclose(v[0], [0, 0, 2.0 * e], atol=1e-9)
+    np.testing.assert_allclose(w[0], 0, atol=1e-9)
+    assert impulse[:, 0].sum() == pytest.approx(2.0 * (1 + e), rel=1e-9)
+    assert np.all(impulse[:, 0] >= -1e-12)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_head_on_equal_bodies_exchange_velocities(solver):
+    I = np.eye(3) / 6
+    contacts, im, ii = make_problem(
+        [1], [0], [[0, 0, 0]], [[1, 0, 0]], [[-0.5, 0, 0], [0.5, 0, 0]], [1.0, 1.0], [I, I]
+    )
+    v = np.array([[3.0, 0, 0], [-1.0, 0, 0]])
+    w = np.zeros((2, 3))
+    u_n = relative_velocity(0, 0, contacts, (v, w, im, ii))
+    solve(solver, contacts, np.array([1.0 * min(u_n, 0)]), np.zeros(1), v, w, im, ii)
+    np.testing.assert_allclose(v, [[-1.0, 0, 0], [3.0, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(w, 0, atol=1e-12)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+@pytest.mark.parametrize(("speed", "sticks"), [(0.5, True), (5.0, False)])
+def test_coulomb_friction_sticks_or_slides(solver, speed, sticks):
+    """Cube landing at -2 m/s while sliding: normal impulse 2 (e = 0), friction limit mu * 2."""
+    mu = 0.4
+    contacts, bias, friction, v, w, im, ii = cube_on_floor(0.0, tangential=(speed, 0), mu=mu)
+    solve(solver, contacts, bias, friction, v, w, im, ii)
+    # friction at the bottom face also tips the cube: compare the contact-point velocity
+    slip = v[0, 0] + np.cross(w[0], [0, 0, -0.5])[0]
+    if sticks:
+        assert abs(slip) < 1e-8
+    else:
+        assert slip > 0
+        # linear momentum lost to friction is exactly mu * normal impulse (direction on a vertex)
+        assert speed - v[0, 0] == pytest.approx(mu * 2.0, rel=1e-6)
+
+
+def random_free_bodies(seed, contacts_count):
+    rng = np.random.default_rng(seed)
+    n = 3
+    positions = rng.normal(size=(n, 3))
+    masses = rng.uniform(0.5, 3.0, n)
+    inertias = []
+    for m in masses:
+        A = rng.normal(size=(3, 3))
+        inertias.append(m * (A @ A.T + 0.2 * np.eye(3)))
+    pairs = [rng.choice(n, 2, replace=False) for _ in range(contacts_count)]
+    contacts, im, ii = make_problem(
+        [p[0] for p in pairs],
+        [p[1] for p in pairs],
+        rng.normal(size=(contacts_count, 3)),
+        rng.normal(size=(contacts_count, 3)),
+        positions,
+        masses,
+        inertias,
+    )
+    v = rng.normal(size=(n, 3))
+    w = rng.normal(size=(n, 3))
+    bodies = (v, w, im, ii)
+    u_n = np.array([relative_velocity(k, 0, contacts, bodies) for k in range(contacts_count)])
+    bias = rng.uniform(0, 1, contacts_count) * np.minimum(u_n, 0)
+    friction = rng.choice([0.0, 0.3, 1.0], contacts_count)
+    return contacts, bias, friction, v, w, im, ii, positions, masses, inertias
+
+
+def momenta(v, w, positions, masses, inertias):
+    P = (masses[:, None] * v).sum(axis=0)
+    L = sum(
+        np.cross(x, m * vi) + I @ wi
+        for x, m, vi, wi, I in zip(positions, masses, v, w, inertias, strict=True)
+    )
+    return P, L
+
+
+@given(st.integers(0, 10**6), st.integers(1, 5), st.sampled_from(SOLVERS))
+def test_impulses_between_free_bodies_conserve_momentum(seed, count, solver):
+    contacts, bias, friction, v, w, im, ii, x, m, inertias = random_free_bodies(seed, count)
+    P0, L0 = momenta(v, w, x, m, inertias)
+    solve(solver, contacts, bias, friction, v, w, im, ii)
+    P1, L1 = momenta(v, w, x, m, inertias)
+    np.testing.assert_allclose(P1, P0, rtol=1e-9, atol=1e-9 * np.abs(P0).max())
+    np.testing.assert_allclose(L1, L0, rtol=1e-6, atol=1e-6 * np.abs(L0).max())
+
+
+@given(st.integers(0, 10**6), st.integers(1, 4))
+def test_exact_solution_satisfies_the_contact_conditions_and_pgs_converges_to_it(seed, count):
+    contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    v_pgs, w_pgs = v.copy(), w.copy()
+    impulse = solve("exact", contacts, bias, friction, v, w, im, ii)
+    bodies = (v, w, im, ii)
+    scale = 1 + np.abs(impulse).max()
+    for k in range(count):
+        u_n = relative_velocity(k, 0, contacts, bodies) + bias[k]
+        assert u_n >= -1e-8 and impulse[k, 0] >= -1e-10
+        assert abs(u_n * impulse[k, 0]) <= 1e-8 * scale
+        tangential = np.hypot(impulse[k, 1], impulse[k, 2])
+        assert tangential <= friction[k] * impulse[k, 0] + 1e-9 * scale
+    pgs = np.zeros((count, 3))
+    solve_pgs(20000, 8, contacts, bias, friction, (v_pgs, w_pgs, im, ii), pgs)
+    np.testing.assert_allclose(v_pgs, v, atol=1e-5 * (1 + np.abs(v).max()))
+    np.testing.assert_allclose(w_pgs, w, atol=1e-5 * (1 + np.abs(w).max()))
+
+
+def test_polygon_projection_against_brute_force():
+    rng = np.random.default_rng(0)
+    sides, radius = 6, 1.3
+    angles = 2 * np.pi * np.arange(sides) / sides
+    vertices = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    # dense sample of the polygon boundary and interior as the oracle
+    s = np.linspace(0, 1, 2001)
+    boundary = np.concatenate(
+        [vertices[j] + s[:, None] * (vertices[(j + 1) % sides] - vertices[j]) for j in range(sides)]
+    )
+    for point in rng.normal(scale=2.0, size=(200, 2)):
+        p = np.array(project_onto_polygon(point[0], point[1], radius, sides))
+        inside = np.all(
+            (vertices[(np.arange(sides) + 1) % sides] - vertices)[:, 0]
+            * (point[1] - vertices[:, 1])
+            - (vertices[(np.arange(sides) + 1) % sides] - vertices)[:, 1]
+            * (point[0] - vertices[:, 0])
+            >= 0
+        )
+        if inside:
+            np.testing.assert_allclose(p, point, atol=1e-12)
+        else:
+            nearest = boundary[np.argmin(np.linalg.norm(boundary - point, axis=1))]
+            assert np.linalg.norm(p - point) <= np.linalg.norm(nearest - point) + 1e-12
+            assert np.linalg.norm(p - nearest) < 2e-3
+    assert project_onto_polygon(1.0, 1.0, 0.0, 4) == (0.0, 0.0)
+
+
+def test_basis_is_orthonormal_and_right_handed():
+    normals = np.random.default_rng(1).normal(size=(50, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    basis = contact_basis(normals)
+    for frame, n in zip(basis, normals, strict=True):
+        np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-14)
+        np.testing.assert_allclose(frame[0], n)
+        np.testing.assert_allclose(np.cross(frame[1], frame[2]), n, atol=1e-14)
