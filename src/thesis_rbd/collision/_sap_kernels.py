@@ -1,0 +1,603 @@
+"""numba kernels of the sweep-and-prune broad phase (thesis 4.7, 5.3); ``sap.py`` wraps them.
+
+Flat state shared by the kernels, with ``n`` objects and ``m = 2 n`` endpoints per axis:
+
+``val : (3, m) float64``
+    Endpoint coordinates of each axis in sorted order.
+``ep : (3, m) int64``
+    Endpoint codes in the same order: ``2 * id`` for a begin (lower bound), ``2 * id + 1`` for
+    an end (upper bound).
+
+Sort key of an endpoint is ``(value, is_end)``: on equal coordinates a begin sorts before an
+end, so intervals that only touch are seen as overlapping (closed intervals). With that key,
+"the intervals of i and j overlap on axis a" is exactly "begin_i precedes end_j and begin_j
+precedes end_i in the array of axis a", and the number of axes on which that holds is the
+thesis's overlap counter of the pair. Only a swap of a begin with an end changes a term of a
+counter, and the pair enters (or leaves) the overlap set exactly when its counter reaches (or
+leaves) 3.
+
+The counters are not stored for all pairs: pairs that overlap on one axis alone number
+O(n^(5/3)) in a uniform 3-D scene, about 10^8 at n = 10^5. Nor are they read from rank arrays,
+which costs a cache miss per swap (measured: 170 ms instead of 12 ms per frame at n = 10^5).
+Instead each endpoint record carries a copy of its box's bounds on the two other axes, so the
+other two counter terms of a pair are read from the two records being swapped: an axis already
+sorted this frame is in the order of the new bounds, an axis not yet sorted still in the order
+of the previous frame's bounds, and the copies are taken accordingly (``_refresh_axis``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.collision.pair_table import (
+    IN_SET,
+    TOUCHED,
+    WAS_IN,
+    pair_key,
+    table_delete,
+    table_find,
+    table_insert,
+)
+
+# Status codes of `insertion_sort_frame`.
+DONE = 0
+OVER_BUDGET = 1
+
+
+@njit
+def _sort_endpoints(lo, hi, first_id):
+    """Sort the endpoints of intervals ``[lo[t], hi[t]]`` (ids ``first_id + t``) by key.
+
+    Returns ``(val, ep)``, both ``(2 len(lo),)``.
+    """
+    n = lo.shape[0]
+    m = 2 * n
+    values = np.empty(m, dtype=np.float64)
+    codes = np.empty(m, dtype=np.int64)
+    for t in range(n):
+        values[2 * t] = lo[t]
+        values[2 * t + 1] = hi[t]
+        codes[2 * t] = 2 * (first_id + t)
+        codes[2 * t + 1] = 2 * (first_id + t) + 1
+    order = np.argsort(values, kind="quicksort")
+    val = values[order]
+    ep = codes[order]
+    # argsort is not stable and knows nothing of the is_end bit: inside each run of equal
+    # values, move the begins in front of the ends.
+    start = 0
+    while start < m:
+        stop = start + 1
+        while stop < m and val[stop] == val[start]:
+            stop += 1
+        if stop - start > 1:
+            begins = 0
+            for p in range(start, stop):
+                if ep[p] & 1 == 0:
+                    begins += 1
+            if 0 < begins < stop - start:
+                run = ep[start:stop].copy()
+                b = start
+                e = start + begins
+                for c in run:
+                    if c & 1 == 0:
+                        ep[b] = c
+                        b += 1
+                    else:
+                        ep[e] = c
+                        e += 1
+        start = stop
+    return val, ep
+
+
+@njit
+def sort_axes(lower, upper):
+    """Sort all endpoints from scratch: ``O(n log n)``.
+
+    Parameters
+    ----------
+    lower, upper : (n, 3) float64
+        Box bounds, row = object id.
+
+    Returns
+    -------
+    val, ep : (3, 2n) float64, (3, 2n) int64
+    """
+    n = lower.shape[0]
+    val = np.empty((3, 2 * n), dtype=np.float64)
+    ep = np.empty((3, 2 * n), dtype=np.int64)
+    for a in range(3):
+        v, e = _sort_endpoints(lower[:, a].copy(), upper[:, a].copy(), 0)
+        val[a] = v
+        ep[a] = e
+    return val, ep
+
+
+@njit
+def _touch(keys, flags, slot, touched, ntouched):
+    """Remember the frame-start state of ``slot`` the first time a frame changes it."""
+    f = flags[slot]
+    if f & TOUCHED == 0:
+        f |= TOUCHED
+        if f & IN_SET:
+            f |= WAS_IN
+        flags[slot] = f
+        if ntouched == touched.shape[0]:
+            grown = np.empty(2 * touched.shape[0], dtype=np.int64)
+            grown[:ntouched] = touched[:ntouched]
+            touched = grown
+        touched[ntouched] = keys[slot]
+        ntouched += 1
+    return touched, ntouched
+
+
+@njit
+def _refresh_axis(lower, upper, old_lower, old_upper, val, ep, other, a):
+    """Write the new coordinates of axis ``a`` and the other axes' bounds into its records.
+
+    ``other[p] = (lo_b, hi_b, lo_c, hi_c)`` of the box of endpoint ``p`` with ``b = a + 1``,
+    ``c = a + 2`` (mod 3): new bounds for axes sorted before ``a`` in this frame, the previous
+    frame's bounds for axes sorted after it, so that each matches its axis's current order.
+    """
+    b = (a + 1) % 3
+    c3 = (a + 2) % 3
+    if b < a:
+        lo_b, hi_b = lower, upper
+    else:
+        lo_b, hi_b = old_lower, old_upper
+    if c3 < a:
+        lo_c, hi_c = lower, upper
+    else:
+        lo_c, hi_c = old_lower, old_upper
+    for p in range(ep.shape[1]):
+        code = ep[a, p]
+        i = code >> 1
+        if code & 1:
+            val[a, p] = upper[i, a]
+        else:
+            val[a, p] = lower[i, a]
+        other[p, 0] = lo_b[i, b]
+        other[p, 1] = hi_b[i, b]
+        other[p, 2] = lo_c[i, c3]
+        other[p, 3] = hi_c[i, c3]
+
+
+@njit
+def _sort_axis(val, ep, other, a, p, log_keys, log_start, swaps, budget):
+    """Insertion-sort axis ``a`` from element ``p`` on, logging counter transitions.
+
+    The hot loop of the broad phase. It calls nothing and never reallocates, so numba keeps
+    it tight (a hash-table call inside it measured 4x slower); transitions go to a fixed-size
+    log that the caller applies to the pair table.
+
+    Returns
+    -------
+    p : int
+        Where to resume: ``m`` when the axis is sorted. Less when the log filled up (the
+        element being moved is parked at the hole, which keeps the prefix before it sorted,
+        so resuming there is exact) or when ``swaps`` passed ``budget``.
+    nlog : int
+        Log entries written: ``log_keys[t]`` a pair key, ``log_start[t]`` 1 when the pair's
+        counter went 2 -> 3, 0 when 3 -> 2.
+    swaps : int
+        Running swap count.
+    """
+    m = ep.shape[1]
+    capacity = log_keys.shape[0]
+    nlog = 0
+    while p < m:
+        v = val[a, p]
+        code = ep[a, p]
+        is_end = code & 1
+        lo_b = other[p, 0]
+        hi_b = other[p, 1]
+        lo_c = other[p, 2]
+        hi_c = other[p, 3]
+        q = p - 1
+        full = False
+        # Move `code` left past every endpoint whose key (value, is_end) is larger.
+        while q >= 0:
+            vq = val[a, q]
+            cq = ep[a, q]
+            if vq < v or (vq == v and (cq & 1) <= is_end):
+                break
+            qlo_b = other[q, 0]
+            qhi_b = other[q, 1]
+            qlo_c = other[q, 2]
+            qhi_c = other[q, 3]
+            # Bitwise, not short-circuit: one well-predicted branch instead of five
+            # data-dependent ones (transitions are rare).
+            if (
+                ((cq & 1) != is_end)
+                & (lo_b <= qhi_b)
+                & (qlo_b <= hi_b)
+                & (lo_c <= qhi_c)
+                & (qlo_c <= hi_c)
+            ):
+                # The other two counter terms hold, so this swap moves the counter between
+                # 2 and 3: a begin passing an end leftwards starts the pair, an end passing
+                # a begin ends it.
+                if nlog == capacity:
+                    full = True
+                    break
+                log_keys[nlog] = pair_key(code >> 1, cq >> 1)
+                log_start[nlog] = 1 - is_end
+                nlog += 1
+            val[a, q + 1] = vq
+            ep[a, q + 1] = cq
+            other[q + 1, 0] = qlo_b
+            other[q + 1, 1] = qhi_b
+            other[q + 1, 2] = qlo_c
+            other[q + 1, 3] = qhi_c
+            swaps += 1
+            q -= 1
+        val[a, q + 1] = v
+        ep[a, q + 1] = code
+        other[q + 1, 0] = lo_b
+        other[q + 1, 1] = hi_b
+        other[q + 1, 2] = lo_c
+        other[q + 1, 3] = hi_c
+        if full:
+            return q + 1, nlog, swaps
+        p += 1
+        if swaps > budget:
+            return p, nlog, swaps
+    return m, nlog, swaps
+
+
+@njit
+def _apply_log(keys, flags, meta, log_keys, log_start, nlog, touched, ntouched):
+    """Apply logged transitions in order to the pair table, noting first touches."""
+    for t in range(nlog):
+        key = log_keys[t]
+        if log_start[t]:
+            keys, flags, slot = table_insert(keys, flags, meta, key, 0)
+            touched, ntouched = _touch(keys, flags, slot, touched, ntouched)
+            flags[slot] |= IN_SET
+        else:
+            slot = table_find(keys, key)
+            touched, ntouched = _touch(keys, flags, slot, touched, ntouched)
+            flags[slot] &= ~np.uint8(IN_SET)
+    return keys, flags, touched, ntouched
+
+
+@njit
+def insertion_sort_frame(
+    lower, upper, old_lower, old_upper, val, ep, keys, flags, meta, budget, log_capacity=4096
+):
+    """One coherent frame: give the endpoints their new coordinates, insertion-sort each axis.
+
+    Every adjacent swap of a begin and an end changes one term of that pair's overlap counter;
+    when the other two terms hold, the pair enters or leaves the set. Expected cost
+    O(n + swaps), swaps = endpoint crossings since the last frame (thesis 4.7).
+
+    Parameters
+    ----------
+    lower, upper : (n, 3) float64
+        New bounds.
+    old_lower, old_upper : (n, 3) float64
+        Bounds of the previous frame (the ones ``val``/``ep`` are sorted by).
+    val, ep : (3, 2n)
+        Sorted state of the previous frame, updated in place.
+    keys, flags, meta : pair table (see ``pair_table``); may be reallocated.
+    budget : int
+        Stop with ``OVER_BUDGET`` once more swaps than this were made (the caller then
+        re-sorts from scratch; the partial state here is discarded).
+    log_capacity : int
+        Transitions logged between two applications to the pair table (tests set it tiny to
+        exercise the resume path; any value >= 1 gives the same result).
+
+    Returns
+    -------
+    status : int
+        ``DONE`` or ``OVER_BUDGET``.
+    swaps : int
+        Adjacent swaps made.
+    keys, flags : the pair table arrays (new ones if it grew).
+    touched : (t,) int64
+        Keys of the pairs whose membership changed at least once this frame.
+    """
+    m = ep.shape[1]
+    other = np.empty((m, 4), dtype=np.float64)
+    log_keys = np.empty(log_capacity, dtype=np.int64)
+    log_start = np.empty(log_capacity, dtype=np.uint8)
+    touched = np.empty(64, dtype=np.int64)
+    ntouched = 0
+    swaps = 0
+    for a in range(3):
+        _refresh_axis(lower, upper, old_lower, old_upper, val, ep, other, a)
+        p = 1
+        while p < m:
+            p, nlog, swaps = _sort_axis(val, ep, other, a, p, log_keys, log_start, swaps, budget)
+            keys, flags, touched, ntouched = _apply_log(
+                keys, flags, meta, log_keys, log_start, nlog, touched, ntouched
+            )
+            if swaps > budget:
+                return OVER_BUDGET, swaps, keys, flags, touched[:ntouched]
+    return DONE, swaps, keys, flags, touched[:ntouched]
+
+
+@njit
+def collect_events(keys, flags, meta, touched):
+    """Net events of a frame from its touched pairs; clears the marks, drops ended pairs.
+
+    A pair may start and end again within one frame (a box passing another); only the
+    difference between frame start and frame end is an event.
+
+    Returns
+    -------
+    added, removed : (k_a,) int64, (k_r,) int64
+        Sorted pair keys.
+    """
+    added = np.empty(touched.shape[0], dtype=np.int64)
+    removed = np.empty(touched.shape[0], dtype=np.int64)
+    na = 0
+    nr = 0
+    for t in range(touched.shape[0]):
+        key = touched[t]
+        slot = table_find(keys, key)
+        f = flags[slot]
+        now = f & IN_SET
+        before = f & WAS_IN
+        if now and not before:
+            added[na] = key
+            na += 1
+        elif before and not now:
+            removed[nr] = key
+            nr += 1
+        if now:
+            flags[slot] = IN_SET
+        else:
+            table_delete(keys, flags, meta, slot)
+    return np.sort(added[:na]), np.sort(removed[:nr])
+
+
+@njit
+def merge_pair_keys(old, removed, added):
+    """``sorted(old - removed + added)`` in O(len(old) + len(added)).
+
+    ``removed`` is a sorted subset of the sorted ``old``; ``added`` is sorted and disjoint
+    from what remains.
+    """
+    out = np.empty(old.shape[0] - removed.shape[0] + added.shape[0], dtype=np.int64)
+    r = 0
+    s = 0
+    o = 0
+    for t in range(old.shape[0]):
+        key = old[t]
+        if r < removed.shape[0] and removed[r] == key:
+            r += 1
+            continue
+        while s < added.shape[0] and added[s] < key:
+            out[o] = added[s]
+            o += 1
+            s += 1
+        out[o] = key
+        o += 1
+    while s < added.shape[0]:
+        out[o] = added[s]
+        o += 1
+        s += 1
+    return out
+
+
+@njit
+def diff_sorted(old, new):
+    """``(new - old, old - new)`` of two sorted distinct key arrays, by one merge."""
+    added = np.empty(new.shape[0], dtype=np.int64)
+    removed = np.empty(old.shape[0], dtype=np.int64)
+    na = 0
+    nr = 0
+    s = 0
+    t = 0
+    while s < old.shape[0] or t < new.shape[0]:
+        if t == new.shape[0] or (s < old.shape[0] and old[s] < new[t]):
+            removed[nr] = old[s]
+            nr += 1
+            s += 1
+        elif s == old.shape[0] or new[t] < old[s]:
+            added[na] = new[t]
+            na += 1
+            t += 1
+        else:
+            s += 1
+            t += 1
+    return added[:na], removed[:nr]
+
+
+@njit
+def axis_overlap_counts(ep):
+    """Number of pairs whose intervals overlap, per axis, from sorted endpoints: (3,) int64.
+
+    Each overlapping pair is counted once, at the later begin: the number of intervals open
+    when a begin is met. Used to pick the sweep axis of a full rebuild and to price it.
+    """
+    counts = np.zeros(3, dtype=np.int64)
+    for a in range(3):
+        open_intervals = 0
+        total = 0
+        for p in range(ep.shape[1]):
+            if ep[a, p] & 1:
+                open_intervals -= 1
+            else:
+                total += open_intervals
+                open_intervals += 1
+        counts[a] = total
+    return counts
+
+
+@njit
+def sweep_all_pairs(lower, upper, ep, axis):
+    """All overlapping pairs by one sort-and-sweep along ``axis``: O(n + k_axis).
+
+    Boxes are visited in the order of their begins on ``axis`` and their bounds gathered into
+    that order first, so the inner scan over later-starting boxes reads memory sequentially.
+
+    Returns
+    -------
+    keys : (k,) int64
+        Sorted pair keys.
+    """
+    n = lower.shape[0]
+    order = np.empty(n, dtype=np.int64)
+    t = 0
+    for p in range(ep.shape[1]):
+        c = ep[axis, p]
+        if c & 1 == 0:
+            order[t] = c >> 1
+            t += 1
+    b = (axis + 1) % 3
+    c3 = (axis + 2) % 3
+    lo_a = np.empty(n)
+    hi_a = np.empty(n)
+    lo_b = np.empty(n)
+    hi_b = np.empty(n)
+    lo_c = np.empty(n)
+    hi_c = np.empty(n)
+    for t in range(n):
+        i = order[t]
+        lo_a[t] = lower[i, axis]
+        hi_a[t] = upper[i, axis]
+        lo_b[t] = lower[i, b]
+        hi_b[t] = upper[i, b]
+        lo_c[t] = lower[i, c3]
+        hi_c[t] = upper[i, c3]
+    out = np.empty(max(16, n), dtype=np.int64)
+    k = 0
+    for s in range(n):
+        h = hi_a[s]
+        lb = lo_b[s]
+        hb = hi_b[s]
+        lc = lo_c[s]
+        hc = hi_c[s]
+        # Later boxes start at or after lo_a[s]; they overlap on `axis` while they start at or
+        # before hi_a[s] (closed intervals).
+        for t in range(s + 1, n):
+            if lo_a[t] > h:
+                break
+            if lo_b[t] <= hb and lb <= hi_b[t] and lo_c[t] <= hc and lc <= hi_c[t]:
+                if k == out.shape[0]:
+                    grown = np.empty(2 * k, dtype=np.int64)
+                    grown[:k] = out[:k]
+                    out = grown
+                out[k] = pair_key(order[s], order[t])
+                k += 1
+    return np.sort(out[:k])
+
+
+@njit
+def pairs_with_new(lower, upper, first_new):
+    """Sorted keys of overlapping pairs with at least one id >= ``first_new``: O(n * new)."""
+    n = lower.shape[0]
+    out = np.empty(16, dtype=np.int64)
+    k = 0
+    for i in range(first_new, n):
+        for j in range(i):
+            if (
+                lower[j, 0] <= upper[i, 0]
+                and lower[i, 0] <= upper[j, 0]
+                and lower[j, 1] <= upper[i, 1]
+                and lower[i, 1] <= upper[j, 1]
+                and lower[j, 2] <= upper[i, 2]
+                and lower[i, 2] <= upper[j, 2]
+            ):
+                if k == out.shape[0]:
+                    grown = np.empty(2 * k, dtype=np.int64)
+                    grown[:k] = out[:k]
+                    out = grown
+                out[k] = pair_key(j, i)
+                k += 1
+    return np.sort(out[:k])
+
+
+@njit
+def merge_endpoints(val, ep, new_lower, new_upper, first_id):
+    """Insert the endpoints of new boxes (ids ``first_id ...``) into sorted axes.
+
+    O(n + m log m) for m new boxes: the new endpoints are sorted, then merged.
+
+    Returns
+    -------
+    val, ep : (3, 2(n + m)) float64, int64
+    """
+    old_m = ep.shape[1]
+    add_m = 2 * new_lower.shape[0]
+    out_val = np.empty((3, old_m + add_m), dtype=np.float64)
+    out_ep = np.empty((3, old_m + add_m), dtype=np.int64)
+    for a in range(3):
+        nv, ne = _sort_endpoints(new_lower[:, a].copy(), new_upper[:, a].copy(), first_id)
+        s = 0
+        t = 0
+        for o in range(old_m + add_m):
+            take_old = False
+            if t == add_m:
+                take_old = True
+            elif s < old_m:
+                vo = val[a, s]
+                vn = nv[t]
+                take_old = vo < vn or (vo == vn and (ep[a, s] & 1) <= (ne[t] & 1))
+            if take_old:
+                out_val[a, o] = val[a, s]
+                out_ep[a, o] = ep[a, s]
+                s += 1
+            else:
+                out_val[a, o] = nv[t]
+                out_ep[a, o] = ne[t]
+                t += 1
+    return out_val, out_ep
+
+
+@njit
+def compact_removed(val, ep, pair_keys, gone):
+    """Drop objects with ``gone[id]`` and renumber the rest densely, order kept.
+
+    The renumbering ``new_id = id - (number of gone ids below id)`` is increasing, so sorted
+    endpoint arrays and sorted pair keys stay sorted: no re-sort.
+
+    Parameters
+    ----------
+    val, ep : (3, 2n)
+    pair_keys : (k,) int64 sorted
+    gone : (n,) bool
+
+    Returns
+    -------
+    val, ep : (3, 2(n - r)) float64, int64
+    kept_keys : sorted keys of the surviving pairs, renumbered
+    removed_keys : sorted keys (old numbering) of the pairs that involved a gone object
+    """
+    n = gone.shape[0]
+    new_id = np.empty(n, dtype=np.int64)
+    alive = 0
+    for i in range(n):
+        if gone[i]:
+            new_id[i] = -1
+        else:
+            new_id[i] = alive
+            alive += 1
+    out_val = np.empty((3, 2 * alive), dtype=np.float64)
+    out_ep = np.empty((3, 2 * alive), dtype=np.int64)
+    for a in range(3):
+        o = 0
+        for p in range(ep.shape[1]):
+            c = ep[a, p]
+            i = new_id[c >> 1]
+            if i >= 0:
+                out_val[a, o] = val[a, p]
+                out_ep[a, o] = 2 * i + (c & 1)
+                o += 1
+    kept = np.empty(pair_keys.shape[0], dtype=np.int64)
+    removed = np.empty(pair_keys.shape[0], dtype=np.int64)
+    nk = 0
+    nr = 0
+    for t in range(pair_keys.shape[0]):
+        key = pair_keys[t]
+        i = new_id[key >> 32]
+        j = new_id[key & 0xFFFFFFFF]
+        if i < 0 or j < 0:
+            removed[nr] = key
+            nr += 1
+        else:
+            kept[nk] = (i << 32) | j
+            nk += 1
+    return out_val, out_ep, kept[:nk], removed[:nr]
