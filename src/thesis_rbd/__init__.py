@@ -6,15 +6,20 @@ pybullet. Public names only; see DESIGN.md for the contract.
 """
 
 from thesis_rbd import spatial
+from thesis_rbd.collision import CollisionResult, Contacts, OBBTree, collide
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.world import World
 
 __all__ = [
+    "CollisionResult",
+    "Contacts",
     "MassProperties",
+    "OBBTree",
     "SweepAndPrune",
     "TriangleMesh",
     "World",
+    "collide",
     "load_mesh",
     "mass_properties",
     "shapes",

@@ -1,5 +1,8 @@
 """Collision detection: OBBTree narrow phase, sweep-and-prune broad phase, contact reports."""
 
+from thesis_rbd.collision.collide import CollisionResult, collide
+from thesis_rbd.collision.contacts import Contacts
+from thesis_rbd.collision.obbtree import OBBTree
 from thesis_rbd.collision.sap import SweepAndPrune
 
-__all__ = ["SweepAndPrune"]
+__all__ = ["CollisionResult", "Contacts", "OBBTree", "SweepAndPrune", "collide"]

@@ -1,0 +1,187 @@
+"""collide(): yes/no and pair sets against a brute-force reference and python-fcl."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from reference import MESH_KINDS, brute_force_pairs, random_mesh, random_pose
+
+import thesis_rbd as rbd
+from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
+
+VARIANTS = [
+    dict(leafless=True, dtype=np.float64),
+    dict(leafless=False, dtype=np.float64),
+    dict(leafless=True, dtype=np.float32),
+    dict(leafless=False, dtype=np.float32),
+]
+
+
+def _sorted(pairs):
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def _scene(kind_a, kind_b, seed):
+    mesh_a = random_mesh(kind_a, seed)
+    mesh_b = random_mesh(kind_b, seed + 1)
+    reach = 0.6 * (mesh_a.scale + mesh_b.scale)
+    return mesh_a, random_pose(seed + 2, reach), mesh_b, random_pose(seed + 3, reach)
+
+
+@settings(max_examples=60)
+@given(
+    kind_a=st.sampled_from(MESH_KINDS),
+    kind_b=st.sampled_from(MESH_KINDS),
+    seed=st.integers(0, 2**31),
+    variant_a=st.sampled_from(VARIANTS),
+    variant_b=st.sampled_from(VARIANTS),
+)
+def test_all_modes_match_brute_force_and_fcl(kind_a, kind_b, seed, variant_a, variant_b):
+    mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
+    tree_a = rbd.OBBTree(mesh_a, **variant_a)
+    tree_b = rbd.OBBTree(mesh_b, **variant_b)
+    expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
+
+    res_all = rbd.collide(tree_a, T_a, tree_b, T_b, mode="all")
+    np.testing.assert_array_equal(res_all.pairs, expected)
+    assert res_all.colliding == (len(expected) > 0)
+    assert res_all.pairs.dtype == np.int64 and res_all.pairs.shape[1] == 2
+
+    res_first = rbd.collide(tree_a, T_a, tree_b, T_b, mode="first")
+    assert res_first.colliding == (len(expected) > 0)
+    assert len(res_first.pairs) == (1 if len(expected) else 0)
+    if len(expected):
+        assert tuple(res_first.pairs[0]) in set(map(tuple, expected))
+
+    res_contacts = rbd.collide(tree_a, T_a, tree_b, T_b, mode="contacts")
+    np.testing.assert_array_equal(res_contacts.pairs, expected)
+    assert res_contacts.colliding == res_all.colliding
+
+    obj_a = fcl_object(fcl_model(mesh_a), T_a)
+    obj_b = fcl_object(fcl_model(mesh_b), T_b)
+    hit_fcl, pairs_fcl = fcl_collide(obj_a, obj_b, max_contacts=100000)
+    assert hit_fcl == res_all.colliding == res_first.colliding
+    np.testing.assert_array_equal(_sorted(pairs_fcl), res_all.pairs)
+
+
+def test_tori_demo_poses_match_fcl():
+    data = np.load(_data_path())
+    mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
+    model = fcl_model(mesh)
+    obj_a = fcl_object(model)
+    trees = [rbd.OBBTree(mesh, **v) for v in VARIANTS[:3]]
+    hits = 0
+    for T_b in data["poses_b"][::7]:
+        hit_fcl, pairs_fcl = fcl_collide(obj_a, fcl_object(model, T_b))
+        hits += hit_fcl
+        for tree in trees:
+            res = rbd.collide(tree, np.eye(4), tree, T_b, mode="all")
+            assert res.colliding == hit_fcl
+            np.testing.assert_array_equal(res.pairs, _sorted(pairs_fcl))
+            assert rbd.collide(tree, np.eye(4), tree, T_b, mode="first").colliding == hit_fcl
+    assert 0 < hits < len(data["poses_b"][::7])
+
+
+def _data_path():
+    from pathlib import Path
+
+    path = Path("/work/shared/data/tori_wobble.npz")
+    if not path.exists():
+        pytest.skip("shared benchmark data not present")
+    return path
+
+
+def test_pairs_sorted_and_unique_and_world_frame_invariant():
+    mesh = rbd.shapes.icosphere(1.0, 2)
+    tree = rbd.OBBTree(mesh)
+    T_b = np.eye(4)
+    T_b[:3, 3] = (1.2, 0.3, 0.1)
+    res = rbd.collide(tree, np.eye(4), tree, T_b, mode="all")
+    assert len(res.pairs) > 10
+    assert len(np.unique(res.pairs, axis=0)) == len(res.pairs)
+    np.testing.assert_array_equal(res.pairs, _sorted(res.pairs))
+    # Moving both meshes by the same rigid motion changes nothing.
+    G = random_pose(7, 5.0)
+    moved = rbd.collide(tree, G, tree, G @ T_b, mode="all")
+    np.testing.assert_array_equal(moved.pairs, res.pairs)
+    # Swapping A and B swaps the columns.
+    swapped = rbd.collide(tree, T_b, tree, np.eye(4), mode="all")
+    np.testing.assert_array_equal(_sorted(swapped.pairs[:, ::-1]), res.pairs)
+
+
+def test_far_apart_costs_one_box_test_and_stats_count():
+    tree = rbd.OBBTree(rbd.shapes.box())
+    T_b = np.eye(4)
+    T_b[0, 3] = 10.0
+    res = rbd.collide(tree, np.eye(4), tree, T_b, mode="all")
+    assert not res.colliding and res.pairs.shape == (0, 2)
+    assert res.stats["bv_tests"] == 1 and res.stats["tri_tests"] == 0
+    assert res.contacts is None
+    T_b[0, 3] = 0.5
+    res = rbd.collide(tree, np.eye(4), tree, T_b, mode="all")
+    assert res.colliding
+    assert res.stats["tri_tests"] >= len(res.pairs) > 0
+    assert res.stats["bv_tests"] > 1
+
+
+def test_touching_faces_count_as_colliding():
+    # Two unit cubes sharing the face x = 0.5 exactly (integer-friendly coordinates).
+    tree = rbd.OBBTree(rbd.shapes.box())
+    T_b = np.eye(4)
+    T_b[0, 3] = 1.0
+    assert rbd.collide(tree, np.eye(4), tree, T_b).colliding
+    T_b[0, 3] = 1.0 + 1e-9
+    assert not rbd.collide(tree, np.eye(4), tree, T_b).colliding
+
+
+def test_single_triangle_meshes():
+    tri = rbd.TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    for leafless in (True, False):
+        tree = rbd.OBBTree(tri, leafless=leafless)
+        assert tree.node_count == (0 if leafless else 1)
+        T_b = np.eye(4)
+        T_b[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # stood up, crossing the first
+        T_b[:3, 3] = (0.2, 0.2, -0.5)
+        big = rbd.OBBTree(rbd.shapes.icosphere(1.0, 1), leafless=leafless)
+        for a, b in ((tree, tree), (tree, big), (big, tree)):
+            res = rbd.collide(a, np.eye(4), b, T_b, mode="all")
+            assert np.array_equal(res.pairs, brute_force_pairs(a.mesh, np.eye(4), b.mesh, T_b))
+        assert rbd.collide(tree, np.eye(4), tree, T_b).colliding
+
+
+@pytest.mark.parametrize(
+    "T, message",
+    [
+        (np.diag([1.0, 1.0, 2.0, 1.0]), "rigid"),
+        (np.diag([1.0, 1.0, -1.0, 1.0]), "rigid"),
+        (np.full((4, 4), np.nan), "non-finite"),
+        (np.eye(3), "shape"),
+        ("eye", "numeric"),
+        (np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [1, 0, 0, 1]], float), "homogeneous"),
+    ],
+)
+def test_invalid_transforms_raise(T, message):
+    tree = rbd.OBBTree(rbd.shapes.box())
+    with pytest.raises(ValueError, match=message):
+        rbd.collide(tree, T, tree, np.eye(4))
+    with pytest.raises(ValueError, match=message):
+        rbd.collide(tree, np.eye(4), tree, T)
+
+
+def test_integer_and_list_transforms_are_accepted():
+    tree = rbd.OBBTree(rbd.shapes.box())
+    res = rbd.collide(tree, np.eye(4, dtype=int), tree, np.eye(4).tolist(), mode="all")
+    assert res.colliding
+
+
+def test_invalid_mode_tree_and_tolerance_raise():
+    tree = rbd.OBBTree(rbd.shapes.box())
+    with pytest.raises(ValueError, match="mode"):
+        rbd.collide(tree, np.eye(4), tree, np.eye(4), mode="any")
+    with pytest.raises(ValueError, match="OBBTree"):
+        rbd.collide(tree.mesh, np.eye(4), tree, np.eye(4))
+    with pytest.raises(ValueError, match="merge_tolerance"):
+        rbd.collide(tree, np.eye(4), tree, np.eye(4), mode="contacts", merge_tolerance=-1)

@@ -1,0 +1,160 @@
+"""Triangle-triangle and triangle-box kernels against plain-Python SAT and LP oracles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from reference import tri_box_lp, tri_tri_lp, tri_tri_sat
+
+from thesis_rbd.collision.triangle import triangle_box_overlap, triangles_overlap
+
+coord = st.floats(-2.0, 2.0, allow_nan=False, width=64)
+triangle = st.lists(coord, min_size=9, max_size=9).map(lambda v: np.array(v).reshape(3, 3))
+small_int = st.integers(-3, 3)
+int_triangle = st.lists(small_int, min_size=9, max_size=9).map(
+    lambda v: np.array(v, dtype=float).reshape(3, 3)
+)
+
+
+@settings(max_examples=300)
+@given(P=triangle, Q=triangle)
+def test_tri_tri_matches_sat_reference(P, Q):
+    overlap, margin = tri_tri_sat(P, Q, exact=True)
+    if abs(margin) < 1e-9:
+        return  # touching: decided by rounding, in the kernel as in any float test
+    assert triangles_overlap(P, Q) == overlap
+
+
+@settings(max_examples=60)
+@given(P=triangle, Q=triangle)
+def test_tri_tri_matches_lp_away_from_touching(P, Q):
+    _, margin = tri_tri_sat(P, Q)
+    if abs(margin) < 1e-7:
+        return  # touching within LP tolerance: the LP cannot decide
+    assert triangles_overlap(P, Q) == tri_tri_lp(P, Q)
+
+
+@settings(max_examples=300)
+@given(P=int_triangle, Q=int_triangle)
+def test_tri_tri_exact_on_integer_grids(P, Q):
+    # Small integers make every product exact, so touching, coplanar and degenerate cases are
+    # decided exactly by both: compare with the exact-rational reference.
+    assert triangles_overlap(P, Q) == tri_tri_sat(P, Q, exact=True)[0]
+
+
+CASES = {
+    # name: (P, Q, overlap)
+    "crossing": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0]],
+        True,
+    ),
+    "above": ([[0, 0, 0], [2, 0, 0], [0, 2, 0]], [[0, 0, 1], [2, 0, 1], [0, 2, 1]], False),
+    "coplanar_overlap": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[1, 1, 0], [-1, 0.5, 0], [0.5, -1, 0]],
+        True,
+    ),
+    "coplanar_inside": (
+        [[0, 0, 0], [4, 0, 0], [0, 4, 0]],
+        [[0.5, 0.5, 0], [1, 0.5, 0], [0.5, 1, 0]],
+        True,
+    ),
+    "coplanar_apart": ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[1, 1, 0], [2, 1, 0], [1, 2, 0]], False),
+    "touch_vertex_on_face": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[0.5, 0.5, 0], [0.5, 0.5, 1], [1, 0, 1]],
+        True,
+    ),
+    "touch_vertex_vertex": (
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+        [[1, 0, 0], [2, 0, 1], [2, 1, 0]],
+        True,
+    ),
+    "shared_edge": ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 0], [1, 0, 0], [0, -1, 1]], True),
+    "identical": ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], True),
+    "segment_piercing": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[0.5, 0.5, -1], [0.5, 0.5, 1], [0.5, 0.5, 1]],
+        True,
+    ),
+    "segment_missing": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[3, 3, -1], [3, 3, 1], [3, 3, 0]],
+        False,
+    ),
+    "point_on_face": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[0.5, 0.5, 0], [0.5, 0.5, 0], [0.5, 0.5, 0]],
+        True,
+    ),
+    "point_off_face": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[0.5, 0.5, 0.1], [0.5, 0.5, 0.1], [0.5, 0.5, 0.1]],
+        False,
+    ),
+    "coplanar_segment_crossing_edge": (
+        [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
+        [[1, 1, 0], [3, 3, 0], [3, 3, 0]],
+        True,
+    ),
+    "parallel_edges_near": (
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+        [[0, 1e-12, 1e-9], [1, 1e-12, 1e-9], [0, -1, 1]],
+        False,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_tri_tri_named_cases(name):
+    P, Q, expected = (np.asarray(x, float) if i < 2 else x for i, x in enumerate(CASES[name]))
+    assert triangles_overlap(P, Q) == expected
+    assert triangles_overlap(Q, P) == expected
+    assert tri_tri_sat(P, Q, exact=True)[0] == expected
+
+
+def test_tri_tri_is_invariant_under_corner_order():
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        P = rng.normal(size=(3, 3))
+        Q = rng.normal(size=(3, 3))
+        want = triangles_overlap(P, Q)
+        for perm in ([1, 2, 0], [2, 1, 0]):
+            assert triangles_overlap(P[perm], Q) == want
+            assert triangles_overlap(P, Q[perm]) == want
+
+
+half = st.lists(st.floats(0.0, 1.5), min_size=3, max_size=3).map(np.array)
+
+
+@settings(max_examples=60)
+@given(V=triangle, h=half)
+def test_tri_box_matches_lp(V, h):
+    # Closed-set answers agree up to touching: an overlap must survive growing the box by a
+    # hair, a separation must survive shrinking it.
+    delta = 1e-7
+    if triangle_box_overlap(V, h):
+        assert tri_box_lp(V, h + delta)
+    elif np.all(h > delta):
+        assert not tri_box_lp(V, h - delta)
+    if tri_box_lp(V, h):
+        assert triangle_box_overlap(V, h + delta)
+
+
+@settings(max_examples=100)
+@given(V=int_triangle, h=st.lists(st.integers(1, 2), min_size=3, max_size=3).map(np.array))
+def test_tri_box_equals_box_as_triangles(V, h):
+    # Independent exact check: a triangle meets a box iff it meets one of the box's 12 face
+    # triangles or lies inside it (closed sets; integer data, so the SAT reference is exact).
+    h = h.astype(float)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * h
+    faces = [
+        (0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+        (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3),
+    ]  # fmt: skip
+    inside = np.all(np.abs(V) <= h)
+    meets = inside or any(tri_tri_sat(V, corners[list(f)], exact=True)[0] for f in faces)
+    assert triangle_box_overlap(V, h) == meets
