@@ -5,10 +5,12 @@ exact contact report) and quaternion rigid-body dynamics, cross-checked against 
 pybullet. Public names only; see DESIGN.md for the contract.
 """
 
-from thesis_rbd import spatial
+from thesis_rbd import scenes, spatial
 from thesis_rbd.collision import CollisionResult, Contacts, OBBTree, collide
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
+from thesis_rbd.scene import Scene, SceneError, load_scene
+from thesis_rbd.trajectory import Trajectory, simulate
 from thesis_rbd.world import World
 
 __all__ = [
@@ -16,13 +18,19 @@ __all__ = [
     "Contacts",
     "MassProperties",
     "OBBTree",
+    "Scene",
+    "SceneError",
     "SweepAndPrune",
+    "Trajectory",
     "TriangleMesh",
     "World",
     "collide",
     "load_mesh",
+    "load_scene",
     "mass_properties",
+    "scenes",
     "shapes",
+    "simulate",
     "spatial",
 ]
 

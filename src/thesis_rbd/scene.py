@@ -1,0 +1,566 @@
+"""Scene files: a world described in TOML, validated with messages that name the fault.
+
+A scene file has optional top-level keys ``description`` and ``seconds`` (the default run
+length), a ``[world]`` table with the arguments of :class:`~thesis_rbd.World`, and one
+``[[body]]`` table per body with the arguments of :meth:`~thesis_rbd.World.add_body`, a
+``shape`` table, and optional ``[[body.force]]`` tables for :meth:`~thesis_rbd.World.apply_force`::
+
+    description = "A box pushed for one second"
+    seconds = 3.0
+
+    [world]
+    dt = 0.004166666666666667
+    gravity = [0.0, 0.0, 0.0]
+    integrator = "rk4"
+
+    [[body]]
+    name = "box"
+    shape = { type = "box", extents = [1.0, 2.0, 3.0] }
+    mass = 1.0
+    position = [0.0, 0.0, 0.0]
+    angular_velocity = [0.0, 6.283185307179586, 0.0]
+
+    [[body.force]]
+    force = [2.0, 0.0, 0.0]
+    duration = 1.0
+
+Shapes: ``box`` (extents), ``icosphere`` (radius, subdivisions), ``cylinder`` (radius, height,
+sections), ``torus`` (major_radius, minor_radius, major_sections, minor_sections) with the
+defaults of :mod:`thesis_rbd.shapes`, and ``mesh`` (path, relative to the scene file; optional
+scale) for any file trimesh reads (OBJ, STL, PLY, glTF, ...).
+
+Everything is checked when the scene is loaded: TOML syntax, unknown keys (with a suggestion),
+types, ranges, shape parameters, mesh files. A fault raises :class:`SceneError` whose message
+names the file, the table (``[world]``, ``body[2] 'lid'``, ``body[2] 'lid' force[0]``), the
+field and the value.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import NoReturn
+
+import numpy as np
+
+from thesis_rbd.dynamics.integrators import INTEGRATORS
+from thesis_rbd.geometry import shapes
+from thesis_rbd.geometry.mesh import TriangleMesh, load_mesh
+from thesis_rbd.world import World
+
+__all__ = ["BodySpec", "ForceSpec", "Scene", "SceneError", "load_scene", "parse_scene"]
+
+DEFAULT_SECONDS = 5.0
+
+
+class SceneError(ValueError):
+    """A scene is invalid; the message names the file, table, field and value at fault."""
+
+
+# ---------------------------------------------------------------------- the validated scene
+@dataclass(frozen=True)
+class ForceSpec:
+    """A force applied to a body from the start of a run.
+
+    Attributes
+    ----------
+    force : (3,) float ndarray
+        World-frame force (N).
+    point : (3,) float ndarray or None
+        World point of application at t = 0 (attached to the body); None: the centre of mass.
+    duration : float or None
+        Seconds the force lasts; None: the whole run.
+    """
+
+    force: np.ndarray
+    point: np.ndarray | None = None
+    duration: float | None = None
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """One ``[[body]]`` table, validated; the arguments of :meth:`World.add_body`.
+
+    Attributes
+    ----------
+    name : str
+        Unique label.
+    shape : Mapping
+        The shape table as written (type and parameters), for display.
+    mesh : TriangleMesh
+        The shape, in its mesh frame.
+    mass, density : float or None
+        At most one is set; neither means density 1.
+    position : (3,) float ndarray
+        World centre of mass.
+    orientation : (4,) float ndarray
+        (x, y, z, w) orientation of the mesh frame.
+    linear_velocity, angular_velocity : (3,) float ndarray
+        World-frame v and w.
+    restitution, friction : float
+        Material coefficients.
+    static : bool
+        Immovable body.
+    forces : tuple of ForceSpec
+        Forces applied from t = 0.
+    """
+
+    name: str
+    shape: MappingProxyType
+    mesh: TriangleMesh
+    mass: float | None
+    density: float | None
+    position: np.ndarray
+    orientation: np.ndarray
+    linear_velocity: np.ndarray
+    angular_velocity: np.ndarray
+    restitution: float
+    friction: float
+    static: bool
+    forces: tuple[ForceSpec, ...]
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene, ready to build worlds from.
+
+    Attributes
+    ----------
+    name : str
+        The scene's name (the file's stem).
+    description : str
+        One paragraph; its first line is the scene's summary.
+    seconds : float
+        Default run length (s).
+    world : Mapping
+        Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
+        quadratic_drag, angular_drag.
+    bodies : tuple of BodySpec
+        In world index order.
+    source : str
+        Where the scene came from (a path), used in messages.
+    """
+
+    name: str
+    description: str
+    seconds: float
+    world: MappingProxyType
+    bodies: tuple[BodySpec, ...]
+    source: str
+
+    @property
+    def summary(self) -> str:
+        """First line of the description."""
+        return self.description.strip().splitlines()[0] if self.description.strip() else ""
+
+    def build(self) -> World:
+        """Return a new :class:`World` holding this scene's bodies and forces at t = 0."""
+        world = World(**self.world)
+        for index, body in enumerate(self.bodies):
+            where = _body_where(index, body.name)
+            try:
+                handle = world.add_body(
+                    body.mesh,
+                    mass=body.mass,
+                    density=body.density,
+                    position=body.position,
+                    orientation=body.orientation,
+                    linear_velocity=body.linear_velocity,
+                    angular_velocity=body.angular_velocity,
+                    restitution=body.restitution,
+                    friction=body.friction,
+                    static=body.static,
+                    name=body.name,
+                )
+                for force in body.forces:
+                    world.apply_force(handle, force.force, force.point, force.duration)
+            except ValueError as exc:
+                raise SceneError(f"{self.source}: {where}: {exc}") from exc
+        return world
+
+    def with_world(self, **settings) -> Scene:
+        """Return a copy with some ``[world]`` settings replaced (validated like the file).
+
+        Parameters
+        ----------
+        **settings
+            Any of dt, gravity, integrator, linear_drag, quadratic_drag, angular_drag.
+        """
+        checked = _parse_world(settings, _Context("overrides"))
+        return replace(self, world=MappingProxyType({**self.world, **checked}))
+
+
+# ---------------------------------------------------------------------- loading
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML scene file; mesh paths inside it are relative to its folder.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    SceneError
+        If the file is missing or not valid TOML, or any table, field or value is at fault.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"scene file not found: {path}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"cannot read scene file {path}: {exc}") from exc
+    return parse_scene(text, name=path.stem, source=str(path), folder=path.parent)
+
+
+def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
+    """Validate the TOML text of a scene.
+
+    Parameters
+    ----------
+    text : str
+        The scene file's content.
+    name : str
+        The scene's name.
+    source : str
+        Where the text came from, used in messages.
+    folder : Path
+        Folder that relative mesh paths are resolved against.
+    """
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{source}: not valid TOML: {exc}") from exc
+    top = _Context(source, "top level")
+    _check_keys(document, ("description", "seconds", "world", "body"), top)
+    description = _optional(document, "description", "", _as_string, top)
+    seconds = _optional(document, "seconds", DEFAULT_SECONDS, _positive_number, top)
+    world = _parse_world(
+        _as_table(document.get("world", {}), _Context(source, "top level"), "world"),
+        _Context(source, "[world]"),
+    )
+    body_tables = document.get("body", [])
+    if not isinstance(body_tables, list):
+        raise SceneError(
+            f"{source}: top level: 'body' must be [[body]] tables, got {body_tables!r}"
+        )
+    bodies = []
+    for index, table in enumerate(body_tables):
+        bodies.append(_parse_body(table, index, source, folder))
+    seen: dict[str, int] = {}
+    for index, body in enumerate(bodies):
+        if body.name in seen:
+            raise SceneError(
+                f"{source}: {_body_where(index, body.name)}: name {body.name!r} is already used "
+                f"by body[{seen[body.name]}]; body names must be unique"
+            )
+        seen[body.name] = index
+    return Scene(
+        name=name,
+        description=description,
+        seconds=seconds,
+        world=MappingProxyType(world),
+        bodies=tuple(bodies),
+        source=source,
+    )
+
+
+# ---------------------------------------------------------------------- tables
+_WORLD_KEYS = ("dt", "gravity", "integrator", "linear_drag", "quadratic_drag", "angular_drag")
+
+
+def _parse_world(table: dict, where: _Context) -> dict:
+    _check_keys(table, _WORLD_KEYS, where)
+    world = {}
+    if "dt" in table:
+        world["dt"] = _positive_number(table["dt"], where.field("dt"))
+    if "gravity" in table:
+        world["gravity"] = tuple(_vector(table["gravity"], 3, where.field("gravity")))
+    if "integrator" in table:
+        integrator = _as_string(table["integrator"], where.field("integrator"))
+        if integrator not in INTEGRATORS:
+            where.field("integrator").fail(
+                f"unknown integrator {integrator!r}; choose one of {', '.join(sorted(INTEGRATORS))}"
+            )
+        world["integrator"] = integrator
+    for key in ("linear_drag", "quadratic_drag", "angular_drag"):
+        if key in table:
+            world[key] = _non_negative_number(table[key], where.field(key))
+    return world
+
+
+_BODY_KEYS = (
+    "name",
+    "shape",
+    "mass",
+    "density",
+    "position",
+    "orientation",
+    "linear_velocity",
+    "angular_velocity",
+    "restitution",
+    "friction",
+    "static",
+    "force",
+)
+
+
+def _body_where(index: int, name: str | None) -> str:
+    return f"body[{index}]" + (f" {name!r}" if name is not None else "")
+
+
+def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
+    where = _Context(source, _body_where(index, None))
+    table = _as_table(table, where, None)
+    name = _optional(table, "name", f"body{index}", _as_string, where)
+    where = _Context(source, _body_where(index, name))
+    _check_keys(table, _BODY_KEYS, where)
+    if "shape" not in table:
+        where.fail(
+            "missing the 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] }"
+        )
+    static = _optional(table, "static", False, _as_bool, where)
+    mass = _optional(table, "mass", None, _positive_number, where)
+    density = _optional(table, "density", None, _positive_number, where)
+    if mass is not None and density is not None:
+        where.fail("give 'mass' or 'density', not both")
+    shape_table = _as_table(table["shape"], where, "shape")
+    mesh = _parse_shape(shape_table, where.field("shape"), folder)
+    if not static and not (mesh.is_closed and mesh.is_consistently_oriented):
+        where.field("shape").fail(
+            "the mesh is not a closed, consistently oriented surface, so it has no volume "
+            "and cannot be a dynamic body; set static = true or repair the mesh"
+        )
+    orientation = np.asarray(_optional(table, "orientation", (0, 0, 0, 1), _quaternion, where))
+    restitution = _optional(table, "restitution", 0.0, _number, where)
+    if not 0.0 <= restitution <= 1.0:
+        where.field("restitution").fail(f"must lie in [0, 1], got {restitution!r}")
+    forces_tables = table.get("force", [])
+    if not isinstance(forces_tables, list):
+        where.field("force").fail(f"must be [[body.force]] tables, got {forces_tables!r}")
+    forces = tuple(
+        _parse_force(force_table, _Context(source, f"{where.table} force[{i}]"))
+        for i, force_table in enumerate(forces_tables)
+    )
+    return BodySpec(
+        name=name,
+        shape=MappingProxyType(dict(shape_table)),
+        mesh=mesh,
+        mass=mass,
+        density=density,
+        position=np.asarray(_optional(table, "position", (0, 0, 0), _vector3, where)),
+        orientation=orientation,
+        linear_velocity=np.asarray(_optional(table, "linear_velocity", (0, 0, 0), _vector3, where)),
+        angular_velocity=np.asarray(
+            _optional(table, "angular_velocity", (0, 0, 0), _vector3, where)
+        ),
+        restitution=restitution,
+        friction=_optional(table, "friction", 0.0, _non_negative_number, where),
+        static=static,
+        forces=forces,
+    )
+
+
+def _parse_force(table, where: _Context) -> ForceSpec:
+    table = _as_table(table, where, None)
+    _check_keys(table, ("force", "point", "duration"), where)
+    if "force" not in table:
+        where.fail("missing 'force', e.g. force = [2.0, 0.0, 0.0]")
+    point = _optional(table, "point", None, _vector3, where)
+    return ForceSpec(
+        force=np.asarray(_vector3(table["force"], where.field("force"))),
+        point=None if point is None else np.asarray(point),
+        duration=_optional(table, "duration", None, _positive_number, where),
+    )
+
+
+# Each shape: its builder and its parameters with the checker of each.
+_SHAPES: dict[str, tuple[Callable[..., TriangleMesh] | None, dict[str, Callable]]] = {
+    "box": (shapes.box, {"extents": lambda v, w: _vector(v, 3, w)}),
+    "icosphere": (
+        shapes.icosphere,
+        {"radius": lambda v, w: _number(v, w), "subdivisions": lambda v, w: _integer(v, w)},
+    ),
+    "cylinder": (
+        shapes.cylinder,
+        {
+            "radius": lambda v, w: _number(v, w),
+            "height": lambda v, w: _number(v, w),
+            "sections": lambda v, w: _integer(v, w),
+        },
+    ),
+    "torus": (
+        shapes.torus,
+        {
+            "major_radius": lambda v, w: _number(v, w),
+            "minor_radius": lambda v, w: _number(v, w),
+            "major_sections": lambda v, w: _integer(v, w),
+            "minor_sections": lambda v, w: _integer(v, w),
+        },
+    ),
+    "mesh": (
+        None,
+        {"path": lambda v, w: _as_string(v, w), "scale": lambda v, w: _positive_number(v, w)},
+    ),
+}
+
+
+def _parse_shape(table: dict, where: _Context, folder: Path) -> TriangleMesh:
+    if "type" not in table:
+        where.fail(f"missing 'type'; choose one of {', '.join(sorted(_SHAPES))}")
+    kind = _as_string(table["type"], where.field("type"))
+    if kind not in _SHAPES:
+        where.field("type").fail(
+            f"unknown shape {kind!r}{_suggestion(kind, _SHAPES)}; "
+            f"choose one of {', '.join(sorted(_SHAPES))}"
+        )
+    builder, parameters = _SHAPES[kind]
+    _check_keys(table, ("type", *parameters), where, what=f"{kind} parameter")
+    arguments = {
+        key: parameters[key](value, where.field(key))
+        for key, value in table.items()
+        if key != "type"
+    }
+    if kind == "mesh":
+        return _load_mesh_shape(arguments, where, folder)
+    try:
+        return builder(**arguments)
+    except ValueError as exc:
+        where.fail(f"{kind}: {exc}")
+
+
+def _load_mesh_shape(arguments: dict, where: _Context, folder: Path) -> TriangleMesh:
+    if "path" not in arguments:
+        where.fail("missing 'path' (a mesh file relative to the scene file)")
+    relative = arguments["path"]
+    path = (folder / relative).resolve()
+    if not path.is_file():
+        where.field("path").fail(f"mesh file not found: {path} (from path = {relative!r})")
+    try:
+        mesh = load_mesh(path)
+    except ValueError as exc:
+        where.field("path").fail(str(exc))
+    scale = arguments.get("scale")
+    if scale is not None:
+        mesh = TriangleMesh(mesh.vertices * scale, mesh.faces)
+    return mesh
+
+
+# ---------------------------------------------------------------------- field checks
+class _Context:
+    """Where in a scene a check runs: source, table and (optionally) field, for messages."""
+
+    def __init__(self, source: str, table: str = "", field_name: str | None = None):
+        self.source, self.table, self.field_name = source, table, field_name
+
+    def field(self, name: str) -> _Context:
+        prefix = f"{self.field_name}." if self.field_name else ""
+        return _Context(self.source, self.table, prefix + name)
+
+    def fail(self, problem: str) -> NoReturn:
+        location = ": ".join(part for part in (self.source, self.table) if part)
+        if self.field_name:
+            location += f": field '{self.field_name}'"
+        raise SceneError(f"{location}: {problem}")
+
+
+def _describe(value) -> str:
+    kinds = {
+        bool: "boolean",
+        int: "integer",
+        float: "number",
+        str: "string",
+        list: "array",
+        dict: "table",
+    }
+    return f"{value!r} ({kinds.get(type(value), type(value).__name__)})"
+
+
+def _suggestion(key: str, allowed) -> str:
+    close = difflib.get_close_matches(key, list(allowed), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _check_keys(table: dict, allowed, where: _Context, what: str = "key") -> None:
+    for key in table:
+        if key not in allowed:
+            where.fail(
+                f"unknown {what} {key!r}{_suggestion(key, allowed)}; allowed: {', '.join(allowed)}"
+            )
+
+
+def _optional(table: dict, key: str, default, check: Callable, where: _Context):
+    return check(table[key], where.field(key)) if key in table else default
+
+
+def _as_table(value, where: _Context, key: str | None) -> dict:
+    if not isinstance(value, dict):
+        (where.field(key) if key else where).fail(f"must be a table, got {_describe(value)}")
+    return value
+
+
+def _as_string(value, where: _Context) -> str:
+    if not isinstance(value, str):
+        where.fail(f"must be a string, got {_describe(value)}")
+    return value
+
+
+def _as_bool(value, where: _Context) -> bool:
+    if not isinstance(value, bool):
+        where.fail(f"must be true or false, got {_describe(value)}")
+    return value
+
+
+def _number(value, where: _Context) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        where.fail(f"must be a number, got {_describe(value)}")
+    if not math.isfinite(value):
+        where.fail(f"must be finite, got {value!r}")
+    return float(value)
+
+
+def _positive_number(value, where: _Context) -> float:
+    number = _number(value, where)
+    if number <= 0.0:
+        where.fail(f"must be > 0, got {value!r}")
+    return number
+
+
+def _non_negative_number(value, where: _Context) -> float:
+    number = _number(value, where)
+    if number < 0.0:
+        where.fail(f"must be >= 0, got {value!r}")
+    return number
+
+
+def _integer(value, where: _Context) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        where.fail(f"must be an integer, got {_describe(value)}")
+    return value
+
+
+def _vector(value, length: int, where: _Context) -> list[float]:
+    if not isinstance(value, list) or len(value) != length:
+        where.fail(f"must be an array of {length} numbers, got {_describe(value)}")
+    return [_number(item, where) for item in value]
+
+
+def _vector3(value, where: _Context) -> list[float]:
+    return _vector(value, 3, where)
+
+
+def _quaternion(value, where: _Context) -> list[float]:
+    q = _vector(value, 4, where)
+    if math.hypot(*q) < 1e-12:
+        where.fail("quaternion (x, y, z, w) has zero length")
+    return q

@@ -1,0 +1,62 @@
+"""Built-in scenes: TOML files shipped inside the package, looked up by name.
+
+>>> import thesis_rbd as rbd
+>>> "dzhanibekov" in rbd.scenes.names()
+True
+>>> world = rbd.scenes.get("dzhanibekov").build()
+
+Each ``<name>.toml`` beside this module is a scene file in the format of
+:mod:`thesis_rbd.scene`; they are package data, so a non-editable install has them too.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from thesis_rbd.scene import Scene, SceneError, parse_scene
+
+__all__ = ["DEFAULT", "get", "names"]
+
+DEFAULT = "dzhanibekov"
+"""The scene ``thesis-rbd run`` runs when given none."""
+
+
+def _files() -> dict[str, resources.abc.Traversable]:
+    folder = resources.files(__name__)
+    return {
+        entry.name.removesuffix(".toml"): entry
+        for entry in folder.iterdir()
+        if entry.is_file() and entry.name.endswith(".toml")
+    }
+
+
+def names() -> list[str]:
+    """Names of the built-in scenes, sorted."""
+    return sorted(_files())
+
+
+def get(name: str) -> Scene:
+    """Load a built-in scene by name.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`names`.
+
+    Raises
+    ------
+    SceneError
+        If there is no built-in scene of that name.
+    """
+    files = _files()
+    if name not in files:
+        raise SceneError(f"no built-in scene {name!r}; built-ins: {', '.join(sorted(files))}")
+    entry = files[name]
+    with resources.as_file(entry) as path:
+        return parse_scene(
+            entry.read_text(encoding="utf-8"),
+            name=name,
+            source=f"built-in scene {name!r}",
+            folder=Path(path).parent,
+        )
