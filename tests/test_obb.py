@@ -108,3 +108,49 @@ def test_covariance_of_a_box_surface_has_its_axes():
     cH = wc.sum(0) / total
     V = symmetric_eigenvectors(wm.sum(0) / total - np.outer(cH, cH))
     np.testing.assert_allclose(np.abs(V.T @ R), np.eye(3), atol=1e-9)
+
+
+@settings(max_examples=60)
+@given(seed=st.integers(0, 2**31), n=st.integers(4, 200))
+def test_hull_matches_qhull(seed, n):
+    from scipy.spatial import ConvexHull
+
+    from thesis_rbd.collision.hull import hull_faces, hull_moments
+
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(n, 3)) * rng.uniform(0.1, 2.0, 3)
+    faces = hull_faces(P)
+    ref = ConvexHull(P)
+    # Closed, outward: the divergence-theorem volume equals qhull's, and every point is inside
+    # every face plane.
+    a, b, c = P[faces[:, 0]], P[faces[:, 1]], P[faces[:, 2]]
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+    np.testing.assert_allclose(volume, ref.volume, rtol=1e-9)
+    normals = np.cross(b - a, c - a)
+    assert np.all(np.einsum("fj,pfj->pf", normals, P[:, None, :] - a[None]) <= 1e-9)
+    total, _, _ = hull_moments(P)
+    np.testing.assert_allclose(total, ref.area, rtol=1e-9)
+
+
+def test_hull_of_flat_or_tiny_sets_is_empty():
+    from thesis_rbd.collision.hull import hull_faces
+
+    rng = np.random.default_rng(1)
+    flat = np.column_stack([rng.normal(size=(30, 2)), np.zeros(30)])
+    assert hull_faces(flat).shape == (0, 3)
+    assert hull_faces(np.zeros((10, 3))).shape == (0, 3)
+    assert hull_faces(rng.normal(size=(3, 3))).shape == (0, 3)
+
+
+def test_hull_fit_is_tessellation_independent():
+    # Gottschalk's point: a box mesh with one face finely subdivided biases the triangle
+    # covariance but not the hull's, whose axes stay the box's.
+    import thesis_rbd as rbd
+    from thesis_rbd.collision.hull import hull_moments
+
+    mesh = rbd.shapes.box((3.0, 2.0, 1.0)).to_trimesh()
+    mesh = mesh.subdivide(face_index=np.flatnonzero(mesh.face_normals[:, 0] > 0.5))
+    mesh = mesh.subdivide(face_index=np.flatnonzero(mesh.face_normals[:, 0] > 0.5))
+    total, cs, ms = hull_moments(np.asarray(mesh.vertices))
+    C = ms / total - np.outer(cs / total, cs / total)
+    np.testing.assert_allclose(np.abs(symmetric_eigenvectors(C)), np.eye(3), atol=1e-9)

@@ -15,7 +15,7 @@ OPTIONS = [
     dict(leafless=lf, dtype=dt, fit=fit)
     for lf in (True, False)
     for dt in (np.float64, np.float32)
-    for fit in ("triangles",)
+    for fit in ("triangles", "hull")
 ]
 
 

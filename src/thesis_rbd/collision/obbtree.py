@@ -27,12 +27,13 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.hull import hull_moments
 from thesis_rbd.collision.obb import symmetric_eigenvectors, triangle_moments
 from thesis_rbd.geometry.mesh import TriangleMesh
 
 __all__ = ["OBBTree"]
 
-_FITS = ("triangles",)
+_FITS = ("triangles", "hull")
 
 # Relative padding of the half-extents, so that a box contains its triangles despite the
 # rounding of the stored centre and axes: a few ulps for float64; for float32 the axes are
@@ -41,8 +42,38 @@ _PAD = {np.dtype(np.float64): 1e-12, np.dtype(np.float32): 2e-6}
 
 
 @njit
-def _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit):
-    """Box axes (3, 3) for triangles ``order[start:end]`` from the summed moments."""
+def _node_points(V, F, order, start, end, stamp, node):
+    """The distinct vertices (k, 3) of faces ``order[start:end]`` (``stamp`` marks seen ids)."""
+    ids = np.empty(3 * (end - start), dtype=np.int64)
+    k = 0
+    for i in range(start, end):
+        for j in range(3):
+            v = F[order[i], j]
+            if stamp[v] != node:
+                stamp[v] = node
+                ids[k] = v
+                k += 1
+    P = np.empty((k, 3))
+    for i in range(k):
+        P[i] = V[ids[i]]
+    return P
+
+
+@njit
+def _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit, V, F, stamp, node):
+    """Box axes (3, 3) for triangles ``order[start:end]`` from the summed moments.
+
+    With ``hull_fit`` the moments are those of the convex hull of the node's vertices
+    (Gottschalk); a node whose vertices span no volume falls back to its own triangles.
+    """
+    if hull_fit and end - start > 1:
+        total, cs, ms = hull_moments(_node_points(V, F, order, start, end, stamp, node))
+        if total > 0.0:
+            C = np.empty((3, 3))
+            for i in range(3):
+                for j in range(3):
+                    C[i, j] = ms[i, j] / total - (cs[i] / total) * (cs[j] / total)
+            return symmetric_eigenvectors(C)
     total = 0.0
     cs = np.zeros(3)
     ms = np.zeros((3, 3))
@@ -145,7 +176,7 @@ def _partition(tris, order, start, end, axes):
 
 
 @njit
-def _build(tris, area, wcent, wmom, leafless, hull_fit, round32, pad):
+def _build(tris, V, F, area, wcent, wmom, leafless, hull_fit, round32, pad):
     """Top-down build; returns (centers, rotations, half_extents, children, root, depth)."""
     m = tris.shape[0]
     n_nodes = m - 1 if leafless else 2 * m - 1
@@ -154,6 +185,7 @@ def _build(tris, area, wcent, wmom, leafless, hull_fit, round32, pad):
     halves = np.zeros((n_nodes, 3))
     children = np.zeros((n_nodes, 2), dtype=np.int32)
     order = np.arange(m)
+    stamp = np.full(V.shape[0], -1, dtype=np.int64)
     if n_nodes == 0:
         return centers, rotations, halves, children, np.int64(-1), np.int64(1)
     # Explicit stack of pending nodes: (node, start, end, depth). Depth <= m, so m + 1 fits.
@@ -172,7 +204,7 @@ def _build(tris, area, wcent, wmom, leafless, hull_fit, round32, pad):
         end = stack[top, 2]
         depth = stack[top, 3]
         max_depth = max(max_depth, depth)
-        axes = _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit)
+        axes = _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit, V, F, stamp, node)
         _fit_box(tris, order, start, end, axes, round32, pad, centers[node], halves[node])
         rotations[node] = axes
         if end - start == 1:
@@ -337,6 +369,8 @@ class OBBTree:
         area, wcent, wmom = triangle_moments(tris)
         centers, rotations, halves, children, root, depth = _build(
             tris,
+            mesh.vertices,
+            mesh.faces,
             area,
             wcent,
             wmom,
