@@ -1,0 +1,234 @@
+"""The thesis-rbd command line, in process (typer's runner) and as a subprocess."""
+
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+import thesis_rbd as rbd
+from thesis_rbd.cli import app
+
+runner = CliRunner()
+
+
+def invoke(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def files_in(folder):
+    return sorted(p.name for p in Path(folder).iterdir())
+
+
+def test_scenes_lists_each_builtin_on_one_line():
+    result = invoke("scenes")
+    assert result.exit_code == 0, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == len(rbd.scenes.names())
+    for line, name in zip(lines, rbd.scenes.names(), strict=True):
+        assert line.startswith(name + " ")
+        assert rbd.scenes.get(name).summary in line
+    assert "(default)" in lines[rbd.scenes.names().index("dzhanibekov")]
+
+
+@pytest.mark.parametrize("name", rbd.scenes.names())
+def test_each_builtin_runs_and_writes_its_outputs(tmp_path, name):
+    out, page = tmp_path / "run.npz", tmp_path / "play.html"
+    result = invoke("run", name, "--seconds", 0.5, "--out", out, "--html", page)
+    assert result.exit_code == 0, result.output
+    trajectory = rbd.Trajectory.load(out)
+    assert trajectory.times[-1] == pytest.approx(0.5, abs=1e-9)
+    assert trajectory.metadata["scene"] == name
+    assert "<canvas" in page.read_text()
+    # the summary: a line per stage that ran, with its share of the time
+    assert "integrate" in result.output and "%" in result.output
+    assert f"wrote {out}, {page}" in result.output
+
+
+def test_run_without_a_scene_runs_the_default():
+    result = invoke("run")
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("dzhanibekov: 1 body, 12 s simulated in 2880 steps")
+
+
+def test_options_override_the_scene(tmp_path):
+    out = tmp_path / "run.npz"
+    result = invoke(
+        "run", "projectile", "-s", 0.3, "--dt", 0.01, "--integrator", "euler",
+        "--record-every", 5, "-o", out,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    trajectory = rbd.Trajectory.load(out)
+    assert trajectory.metadata["dt"] == 0.01 and trajectory.metadata["integrator"] == "euler"
+    assert len(trajectory) == 7  # 30 steps, a frame every 5 and the first
+
+
+def test_quiet_and_verbose(tmp_path):
+    quiet = invoke("run", "thesis_example", "-s", 0.1, "-q")
+    assert quiet.exit_code == 0 and quiet.output == ""
+    verbose = invoke("run", "thesis_example", "-s", 0.1, "-v")
+    assert verbose.exit_code == 0
+    assert "body[1] box2: box (12 faces), mass 10 kg, 1 applied force(s)" in verbose.output
+    assert "stages: forces -> integrate" in verbose.output
+
+
+def test_a_scene_file_path_runs(tmp_path):
+    scene = tmp_path / "drop.toml"
+    scene.write_text('[world]\ngravity = [0, 0, -9.81]\n[[body]]\nshape = { type = "box" }\n')
+    out = tmp_path / "drop.npz"
+    result = invoke("run", scene, "-s", 0.2, "-o", out)
+    assert result.exit_code == 0, result.output
+    assert rbd.Trajectory.load(out).positions[-1, 0, 2] < 0
+
+
+BAD_SCENES = {
+    "unknown shape": ('[[body]]\nshape = { type = "cone" }\n', "unknown shape 'cone'"),
+    "missing mesh file": (
+        '[[body]]\nshape = { type = "mesh", path = "gone.stl" }\n',
+        "mesh file not found",
+    ),
+    "negative dt": ("[world]\ndt = -0.5\n", "field 'dt': must be > 0, got -0.5"),
+    "wrong type": (
+        '[[body]]\nshape = { type = "box" }\nmass = "a lot"\n',
+        "field 'mass': must be a number, got 'a lot' (string)",
+    ),
+    "unknown key": (
+        '[[body]]\nshape = { type = "box" }\nvelocity = [1, 0, 0]\n',
+        "unknown key 'velocity'",
+    ),
+}
+
+
+@pytest.mark.parametrize("fault", sorted(BAD_SCENES))
+def test_bad_scene_exits_nonzero_with_one_message_and_no_output(tmp_path, fault):
+    text, expected = BAD_SCENES[fault]
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    result = invoke("run", scene, "--out", tmp_path / "run.npz", "--html", tmp_path / "play.html")
+    assert result.exit_code == 1
+    assert expected in result.output
+    assert result.output.startswith(f"thesis-rbd: error: {scene}:")
+    assert len(result.output.strip().splitlines()) == 1
+    assert "Traceback" not in result.output
+    assert files_in(tmp_path) == ["bad.toml"]
+
+
+@pytest.mark.parametrize(
+    ("arguments", "expected"),
+    [
+        (["nonesuch"], "no scene file or built-in scene named 'nonesuch'; built-ins: dzhanibekov"),
+        (["missing.toml"], "scene file not found: missing.toml"),
+        (["--seconds", "0"], "--seconds must be a positive number"),
+        (["--dt", "-1"], "--dt must be a positive number"),
+        (["--integrator", "leapfrog"], "--integrator must be one of euler, midpoint, rk4"),
+        (["--fps", "0", "--gif", "{tmp}/a.gif"], "--fps must be a positive number"),
+        (["--html", "{tmp}/no/such/folder/play.html"], "folder"),
+        (["--html", "{tmp}/same", "--out", "{tmp}/same"], "must name different files"),
+    ],
+)
+def test_bad_options_exit_nonzero_without_output(tmp_path, arguments, expected):
+    arguments = [a.replace("{tmp}", str(tmp_path)) for a in arguments]
+    result = invoke("run", *arguments)
+    assert result.exit_code == 1, result.output
+    assert expected in result.output
+    assert "Traceback" not in result.output
+    assert files_in(tmp_path) == []
+
+
+def test_outputs_are_all_or_nothing(tmp_path, monkeypatch):
+    import thesis_rbd.viz.html
+
+    def fail(*args, **kwargs):
+        raise OSError("no space left on device")
+
+    monkeypatch.setattr(thesis_rbd.viz.html, "write_html", fail)
+    result = invoke(
+        "run", "projectile", "-s", 0.1, "--out", tmp_path / "a.npz", "--html", tmp_path / "a.html"
+    )
+    assert result.exit_code == 1
+    assert "no space left on device" in result.output
+    assert files_in(tmp_path) == []  # the trajectory was staged, then removed
+
+
+def test_gif_and_play(tmp_path):
+    pytest.importorskip("matplotlib")
+    out, gif = tmp_path / "run.npz", tmp_path / "run.gif"
+    result = invoke("run", "thesis_example", "-s", 0.2, "-o", out, "--gif", gif, "--fps", 10)
+    assert result.exit_code == 0, result.output
+    assert gif.read_bytes()[:6] == b"GIF89a"
+    page = tmp_path / "again.html"
+    replay = invoke("play", out, "--html", page)
+    assert replay.exit_code == 0, replay.output
+    assert "thesis_example" in page.read_text()
+    nothing = invoke("play", out)
+    assert nothing.exit_code == 1 and "give --html and/or --gif" in nothing.output
+    missing = invoke("play", tmp_path / "absent.npz", "--html", tmp_path / "x.html")
+    assert missing.exit_code == 1 and "trajectory file not found" in missing.output
+
+
+def test_gif_without_matplotlib_says_how_to_install_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib -> ImportError
+    result = invoke("run", "-s", 0.1, "--out", tmp_path / "a.npz", "--gif", tmp_path / "a.gif")
+    assert result.exit_code == 1
+    assert "needs matplotlib" in result.output and "pip install" in result.output
+    assert files_in(tmp_path) == []
+
+
+# ---------------------------------------------------------------------- as a subprocess
+def console_script():
+    script = Path(sys.executable).parent / "thesis-rbd"
+    return str(script) if script.exists() else shutil.which("thesis-rbd")
+
+
+@pytest.fixture
+def thesis_rbd_command():
+    script = console_script()
+    if script is None:
+        pytest.skip("the thesis-rbd console script is not installed (pip install -e .)")
+    return script
+
+
+def run_command(*args, cwd):
+    environment = {**os.environ, "COLUMNS": "100"}
+    return subprocess.run(
+        [*args], cwd=cwd, capture_output=True, text=True, timeout=120, env=environment
+    )
+
+
+def test_console_script_runs_a_builtin_and_lists_scenes(tmp_path, thesis_rbd_command):
+    listing = run_command(thesis_rbd_command, "scenes", cwd=tmp_path)
+    assert listing.returncode == 0, listing.stderr
+    assert "dzhanibekov" in listing.stdout
+    result = run_command(
+        thesis_rbd_command, "run", "dzhanibekov", "--seconds", "12", "--out", "run.npz",
+        "--html", "play.html", cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert files_in(tmp_path) == ["play.html", "run.npz"]
+
+
+def test_console_script_reports_a_bad_scene_in_one_line(tmp_path, thesis_rbd_command):
+    (tmp_path / "bad.toml").write_text(
+        textwrap.dedent(
+            """
+            [[body]]
+            shape = { type = "box" }
+            spin = 3
+            """
+        )
+    )
+    result = run_command(
+        thesis_rbd_command, "run", "bad.toml", "--out", "run.npz", "--html", "p.html", cwd=tmp_path
+    )
+    assert result.returncode == 1
+    assert result.stdout == ""
+    assert result.stderr.strip() == (
+        "thesis-rbd: error: bad.toml: body[0] 'body0': unknown key 'spin'; allowed: name, shape, "
+        "mass, density, position, orientation, linear_velocity, angular_velocity, restitution, "
+        "friction, static, force"
+    )
+    assert files_in(tmp_path) == ["bad.toml"]

@@ -1,0 +1,148 @@
+"""simulate() records the right frames; Trajectory round-trips through .npz atomically."""
+
+import numpy as np
+import pytest
+
+import thesis_rbd as rbd
+from thesis_rbd.trajectory import Trajectory
+
+
+def two_body_world():
+    world = rbd.World(dt=0.01, gravity=(0, 0, -9.81))
+    offset_box = rbd.TriangleMesh(rbd.shapes.box((1, 2, 3)).vertices + [3.0, 0, 0], [[0, 1, 2]])
+    world.add_body(offset_box, static=True, name="ledge", position=(0, 0, -1))
+    world.add_body(
+        rbd.shapes.box((1.0, 2.0, 3.0)),
+        mass=2.0,
+        position=(1, 2, 3),
+        linear_velocity=(1, 0, 0),
+        angular_velocity=(0.3, 1.0, -0.2),
+        name="crate",
+    )
+    return world
+
+
+def test_frames_every_k_steps_and_always_the_last():
+    world = two_body_world()
+    stages = world.stages
+    calls = []
+    trajectory = rbd.simulate(world, 0.1, record_every=3, progress=lambda *a: calls.append(a))
+    # 10 steps: frames after 0, 3, 6, 9 and 10 steps
+    np.testing.assert_allclose(trajectory.times, [0, 0.03, 0.06, 0.09, 0.10], atol=1e-12)
+    assert calls == [(3, 10), (6, 10), (9, 10), (10, 10)]
+    assert trajectory.positions.shape == (5, 2, 3)
+    assert trajectory.orientations.shape == (5, 2, 4)
+    np.testing.assert_array_equal(trajectory.positions[-1], world.positions)
+    np.testing.assert_array_equal(trajectory.orientations[-1], world.orientations)
+    np.testing.assert_array_equal(trajectory.positions[0, 1], [1, 2, 3])
+    assert trajectory.names == ["ledge", "crate"]
+    np.testing.assert_array_equal(trajectory.static, [True, False])
+    assert trajectory.metadata["steps"] == 10 and trajectory.metadata["dt"] == 0.01
+    assert trajectory.metadata["stages"] == stages
+    assert stages[:2] == ["forces", "integrate"]
+
+
+def test_profile_counts_only_this_run():
+    world = rbd.World(dt=0.01)
+    world.add_body(rbd.shapes.box(), linear_velocity=(1, 0, 0))
+    rbd.simulate(world, 0.05)
+    second = rbd.simulate(world, 0.1)
+    assert second.metadata["profile"]["integrate"]["calls"] == 10
+    assert second.metadata["profile"]["forces"]["calls"] == 0
+    assert second.times[0] == pytest.approx(0.05)  # continues from the world's time
+    assert world.profile["integrate"]["calls"] == 15
+
+
+def test_transforms_place_mesh_vertices_like_the_world():
+    world = two_body_world()
+    trajectory = rbd.simulate(world, 0.2)
+    for body in range(2):
+        mesh = world.bodies.meshes[body]
+        T = world.transform(body)
+        expected = mesh.vertices @ T[:3, :3].T + T[:3, 3]
+        np.testing.assert_allclose(trajectory.world_vertices(-1, body), expected, atol=1e-12)
+    assert trajectory.frame_at(0.0) == 0
+    assert trajectory.frame_at(0.105) == 10
+    assert trajectory.frame_at(99.0) == len(trajectory) - 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"seconds": 0.0}, "seconds must be finite and positive"),
+        ({"seconds": float("nan")}, "seconds must be finite and positive"),
+        ({"seconds": "long"}, "seconds must be a number"),
+        ({"seconds": 1.0, "record_every": 0}, "record_every must be an integer >= 1"),
+        ({"seconds": 1.0, "record_every": 1.5}, "record_every must be an integer >= 1"),
+    ],
+)
+def test_bad_arguments_are_named(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        rbd.simulate(two_body_world(), **kwargs)
+    with pytest.raises(ValueError, match="world must be a World"):
+        rbd.simulate("world", 1.0)
+
+
+def test_save_and_load_round_trip(tmp_path):
+    trajectory = rbd.simulate(two_body_world(), 0.2, record_every=2)
+    trajectory.metadata["scene"] = "two bodies"
+    path = tmp_path / "run.npz"
+    trajectory.save(path)
+    loaded = Trajectory.load(path)
+    for field in ("times", "positions", "orientations", "centers_of_mass", "static"):
+        np.testing.assert_array_equal(getattr(loaded, field), getattr(trajectory, field))
+    assert loaded.names == trajectory.names
+    assert loaded.metadata == trajectory.metadata
+    for mine, theirs in zip(loaded.meshes, trajectory.meshes, strict=True):
+        np.testing.assert_array_equal(mine.vertices, theirs.vertices)
+        np.testing.assert_array_equal(mine.faces, theirs.faces)
+    # no pickles: plain np.load with allow_pickle=False reads every array
+    with np.load(path, allow_pickle=False) as data:
+        assert data["positions"].shape == (11, 2, 3)
+
+
+def test_save_is_atomic(tmp_path, monkeypatch):
+    path = tmp_path / "run.npz"
+    path.write_bytes(b"previous run")
+    trajectory = rbd.simulate(two_body_world(), 0.05)
+
+    def write_half_then_fail(file, **arrays):
+        file.write(b"PK\x03\x04 half a zip")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", write_half_then_fail)
+    with pytest.raises(OSError, match="disk full"):
+        trajectory.save(path)
+    assert path.read_bytes() == b"previous run"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]  # no temporary left
+    monkeypatch.undo()
+    trajectory.save(path)
+    assert Trajectory.load(path).names == ["ledge", "crate"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]
+
+
+def test_save_needs_an_existing_folder(tmp_path):
+    trajectory = rbd.simulate(two_body_world(), 0.05)
+    with pytest.raises(ValueError, match=r"folder .*missing does not exist"):
+        trajectory.save(tmp_path / "missing" / "run.npz")
+
+
+def test_load_rejects_what_is_not_a_trajectory(tmp_path):
+    with pytest.raises(ValueError, match="trajectory file not found"):
+        Trajectory.load(tmp_path / "absent.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="cannot read trajectory"):
+        Trajectory.load(tmp_path / "junk.npz")
+    np.savez(tmp_path / "other.npz", positions=np.zeros((1, 1, 3)))
+    with pytest.raises(ValueError, match=r"not a thesis_rbd trajectory .*missing format, times"):
+        Trajectory.load(tmp_path / "other.npz")
+
+
+def test_constructor_checks_shapes():
+    mesh = rbd.shapes.box()
+    with pytest.raises(ValueError, match=r"positions must have shape \(2, 1, 3\)"):
+        Trajectory([0, 1], np.zeros((2, 2, 3)), np.zeros((2, 1, 4)), ["a"], [mesh], [[0, 0, 0]])
+    with pytest.raises(ValueError, match="non-decreasing"):
+        Trajectory([1, 0], np.zeros((2, 1, 3)), np.ones((2, 1, 4)), ["a"], [mesh], [[0, 0, 0]])
+    with pytest.raises(ValueError, match="one TriangleMesh per body"):
+        Trajectory([0], np.zeros((1, 1, 3)), np.ones((1, 1, 4)), ["a"], [], [[0, 0, 0]])
