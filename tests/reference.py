@@ -42,8 +42,10 @@ def _cross(a, b):
 def tri_tri_sat(P, Q, exact: bool = False) -> tuple[bool, float]:
     """Triangle-triangle overlap by the separating-axis theorem, in plain Python.
 
-    Every candidate axis is tried: both normals, all 9 edge-edge cross products, and every
-    edge crossed with either normal (in-plane normals for coplanar or degenerate triangles).
+    Every candidate axis is tried: both normals, all 9 edge-edge cross products, every edge
+    crossed with either normal (in-plane normals for coplanar pairs), and for segment- or
+    point-shaped triangles the edges, the corner-to-corner directions and their components
+    perpendicular to each edge.
     With ``exact`` the arithmetic is done in ``Fraction``s (exact for float input).
 
     Returns
@@ -65,6 +67,17 @@ def tri_tri_sat(P, Q, exact: bool = False) -> tuple[bool, float]:
     axes = [n1, n2]
     axes += [_cross(a, b) for a, b in product(e, f)]
     axes += [_cross(n, a) for n in (n1, n2) for a in e + f]
+    # Segment- and point-shaped triangles: edges, corner-to-corner directions, and those
+    # directions' components perpendicular to each edge.
+    # (Only needed when a normal vanishes: for two proper triangles the axes above are
+    # already complete, and these would only slow the exact-arithmetic runs down.)
+    if _dot(n1, n1) == 0 or _dot(n2, n2) == 0:
+        axes += e + f
+        for a in p:
+            for b in q:
+                w = _sub(b, a)
+                axes.append(w)
+                axes += [_cross(d, _cross(w, d)) for d in e + f]
     best_gap = -math.inf
     least_overlap = math.inf
     for axis in axes:

@@ -16,6 +16,10 @@ small_int = st.integers(-3, 3)
 int_triangle = st.lists(small_int, min_size=9, max_size=9).map(
     lambda v: np.array(v, dtype=float).reshape(3, 3)
 )
+# Segment- and point-shaped triangles: a repeated corner, or all three equal.
+degenerate_triangle = st.one_of(
+    int_triangle.map(lambda t: t[[0, 1, 1]]), int_triangle.map(lambda t: t[[0, 0, 0]])
+)
 
 
 @settings(max_examples=300)
@@ -42,6 +46,17 @@ def test_tri_tri_exact_on_integer_grids(P, Q):
     # Small integers make every product exact, so touching, coplanar and degenerate cases are
     # decided exactly by both: compare with the exact-rational reference.
     assert triangles_overlap(P, Q) == tri_tri_sat(P, Q, exact=True)[0]
+
+
+@settings(max_examples=200)
+@given(P=degenerate_triangle, Q=st.one_of(degenerate_triangle, int_triangle))
+def test_tri_tri_degenerate_against_lp(P, Q):
+    # Exactly representable data, away from LP tolerance issues: grow/shrink is not possible
+    # for points, so compare with the LP on the exact-SAT margin's clear cases.
+    overlap, margin = tri_tri_sat(P, Q, exact=True)
+    assert triangles_overlap(P, Q) == overlap
+    if abs(margin) > 1e-6 or overlap:
+        assert tri_tri_lp(P, Q) == overlap
 
 
 CASES = {
@@ -98,6 +113,37 @@ CASES = {
     "coplanar_segment_crossing_edge": (
         [[0, 0, 0], [2, 0, 0], [0, 2, 0]],
         [[1, 1, 0], [3, 3, 0], [3, 3, 0]],
+        True,
+    ),
+    "point_beside_segment": (
+        [[1, 1, 1], [1, 1, 1], [1, 1, 1]],
+        [[0, 0, 0], [0, 0, 2], [0, 0, 2]],
+        False,
+    ),
+    "point_on_segment": (
+        [[0, 0, 1], [0, 0, 1], [0, 0, 1]],
+        [[0, 0, 0], [0, 0, 2], [0, 0, 2]],
+        True,
+    ),
+    "point_beyond_segment_end": (
+        [[0, 0, 3], [0, 0, 3], [0, 0, 3]],
+        [[0, 0, 0], [0, 0, 2], [0, 0, 2]],
+        False,
+    ),
+    "two_points": ([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [[0, 0, 1], [0, 0, 1], [0, 0, 1]], False),
+    "parallel_segments": (
+        [[0, 0, 0], [1, 0, 0], [1, 0, 0]],
+        [[0, 1, 0], [1, 1, 0], [1, 1, 0]],
+        False,
+    ),
+    "skew_segments": (
+        [[0, 0, 0], [1, 0, 0], [1, 0, 0]],
+        [[0.5, -1, 0.1], [0.5, 1, 0.1], [0.5, 1, 0.1]],
+        False,
+    ),
+    "crossing_segments": (
+        [[0, 0, 0], [1, 0, 0], [1, 0, 0]],
+        [[0.5, -1, 0], [0.5, 1, 0], [0.5, 1, 0]],
         True,
     ),
     "parallel_edges_near": (

@@ -11,9 +11,11 @@ two plane-side rejections (all corners of one triangle strictly on one side of t
 plane), which settle most pairs a bounding-volume traversal hands over. The pairs that straddle
 both planes are then decided on the remaining separating axes instead of Möller's interval
 arithmetic, which divides by distances and needs a special coplanar branch: the 9 edge-edge
-cross products, then the 12 in-plane edge normals that decide coplanar and degenerate
-(segment- or point-shaped) triangles. With exact arithmetic this axis set is complete for any
-pair of triangles, degenerate or not, except two *coplanar segments*.
+cross products, then the 12 in-plane edge normals that decide coplanar pairs and a segment
+against a proper triangle. When a triangle is exactly degenerate (a segment or a point: zero
+normal), the edges themselves and the corner-to-corner directions (and their components
+perpendicular to each edge) are added, which decides point/point, point/segment and
+segment/segment pairs. With exact arithmetic the axis set is then complete for any pair.
 
 Triangle-box (:func:`tri_box_overlap`) is Akenine-Möller's (2001) 13-axis test: the box's face
 normals, the triangle normal, and the 9 cross products of box axes with triangle edges.
@@ -117,7 +119,33 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
             return False
         if _separated(cross(n, f2), p0, p1, p2, q0, q1, q2):
             return False
+    if dot(n1, n1) == 0.0 or dot(n2, n2) == 0.0:
+        return not _degenerate_separated(p0, p1, p2, q0, q1, q2, e0, e1, e2, f0, f1, f2)
     return True
+
+
+@njit
+def _degenerate_separated(p0, p1, p2, q0, q1, q2, e0, e1, e2, f0, f1, f2):
+    """Extra axes for a triangle that is exactly a segment or a point (zero normal).
+
+    The axes above lose their meaning when a normal vanishes: a point against a segment, or
+    two parallel segments, has no face normal or edge cross product to separate on. The
+    missing axes are the edges themselves (a point beyond a segment's end) and, for every
+    corner-to-corner vector w, its component perpendicular to each edge,
+    ``e x (w x e)`` (a point beside a segment's line), and w itself (two points).
+    """
+    for e in (e0, e1, e2, f0, f1, f2):
+        if _separated(e, p0, p1, p2, q0, q1, q2):
+            return True
+    for p in (p0, p1, p2):
+        for q in (q0, q1, q2):
+            w = sub(q, p)
+            if _separated(w, p0, p1, p2, q0, q1, q2):
+                return True
+            for e in (e0, e1, e2, f0, f1, f2):
+                if _separated(cross(e, cross(w, e)), p0, p1, p2, q0, q1, q2):
+                    return True
+    return False
 
 
 @njit
