@@ -37,9 +37,24 @@ class BenchmarkSuiteStudy:
         belongs to.
     size_label : str
         x-axis label of the scaling figure.
+    peer_series : dict, optional
+        Peer name (``extra_info["peer"]`` when a string, else the test function's name) ->
+        series key, so that a peer is drawn with its style from
+        :data:`validation.plotting.METHOD_STYLES`.
     """
 
-    def __init__(self, name, title, suite, selections, max_time, size_key, series_key, size_label):
+    def __init__(
+        self,
+        name,
+        title,
+        suite,
+        selections,
+        max_time,
+        size_key,
+        series_key,
+        size_label,
+        peer_series=None,
+    ):
         self.NAME = name
         self.TITLE = title
         self.suite = suite
@@ -48,6 +63,7 @@ class BenchmarkSuiteStudy:
         self.size_key = size_key
         self.series_key = series_key
         self.size_label = size_label
+        self.peer_series = dict(peer_series or {})
 
     def cases(self, scale: str) -> list[Case]:
         """One timed case: the whole suite (or its ``scale`` subset) in one pytest run."""
@@ -74,7 +90,8 @@ class BenchmarkSuiteStudy:
     def _series(self, bench):
         peer = bench["extra_info"].get("peer")
         if peer:
-            return peer if isinstance(peer, str) else bench["test"]
+            name = peer if isinstance(peer, str) else bench["test"]
+            return self.peer_series.get(name, name)
         return str(bench["extra_info"].get(self.series_key, bench["test"]))
 
     def summarise(self, records: list[dict], figures_dir) -> Section:

@@ -17,6 +17,7 @@ _STUDY = BenchmarkSuiteStudy(
     size_key="bodies",
     series_key="integrator",
     size_label="bodies N",
+    peer_series={"test_free_flight_step_numpy_peer": "numpy_peer"},
 )
 
 NAME = _STUDY.NAME

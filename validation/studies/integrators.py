@@ -213,6 +213,11 @@ def summarise(records: list[dict], figures_dir) -> Section:
             ),
             "cheapest_within_target": cheapest,
         }
+    rk4_errors = [p["max_angle_error"] for p in methods["rk4"]["points"]]
+    rk4_floor = min(rk4_errors)
+    rk4_floor_rate = next(
+        p["rate"] for p in methods["rk4"]["points"] if p["max_angle_error"] <= 2 * rk4_floor
+    )
     headline_rate = HEADLINE_RATE if HEADLINE_RATE in rates else rates[len(rates) // 2]
     headline = {
         method: next(p for p in methods[method]["points"] if p["rate"] == headline_rate)
@@ -230,6 +235,8 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "headline_rate": headline_rate,
         "headline": headline,
         "methods": methods,
+        "rk4_floor": rk4_floor,
+        "rk4_floor_rate": rk4_floor_rate,
         "rk4_vs_pybullet_error_ratio": headline["pybullet_multibody"]["max_angle_error"]
         / headline["rk4"]["max_angle_error"],
         "rk4_vs_pybullet_cost_ratio": headline["rk4"]["seconds_per_simulated_second"]

@@ -1,0 +1,153 @@
+"""The validation campaign end to end, on its smallest scale: files, figures, data, resume,
+local processes and a Dask LocalCluster."""
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+import validation.execution
+from validation.__main__ import main
+from validation.campaign import run_campaign
+from validation.formatting import format_number
+from validation.studies import STUDIES
+
+REPO = Path(__file__).resolve().parents[1]
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def quiet(*_args):
+    pass
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reports")
+    outcome = run_campaign(out=out, scale="tiny", log=quiet)
+    return out, outcome
+
+
+def study_data(out, name):
+    return json.loads((out / "data" / f"{name}.json").read_text(encoding="utf-8"))
+
+
+def test_the_campaign_writes_every_report_file(tiny_report):
+    out, outcome = tiny_report
+    assert outcome.report == out / "report.md"
+    for name in ("report.md", "report.html", "data/campaign.json"):
+        assert (out / name).stat().st_size > 0, name
+    for name in STUDIES:
+        data = study_data(out, name)
+        assert outcome.executed[name] == data["case_count"] == len(data["records"]) > 0
+        assert len(list((out / "data" / "cases" / name).glob("*.json"))) == data["case_count"]
+    campaign = json.loads((out / "data" / "campaign.json").read_text(encoding="utf-8"))
+    environment = campaign["environment"]
+    assert environment["libraries"]["numpy"] and environment["machine"]["logical_cores"] >= 1
+    markdown = (out / "report.md").read_text(encoding="utf-8")
+    assert environment["git"]["short"] in markdown and environment["machine"]["cpu"] in markdown
+
+
+def test_figures_are_non_empty_pngs_embedded_in_the_html(tiny_report):
+    out, _ = tiny_report
+    files = [f["file"] for name in STUDIES for f in study_data(out, name)["figures"]]
+    assert len(files) >= 6
+    html = (out / "report.html").read_text(encoding="utf-8")
+    markdown = (out / "report.md").read_text(encoding="utf-8")
+    for file in files:
+        png = (out / "figures" / file).read_bytes()
+        assert png.startswith(PNG_SIGNATURE) and len(png) > 5000, file
+        assert f"(figures/{file})" in markdown
+    assert html.count('src="data:image/png;base64,') == len(files)
+
+
+def test_the_report_shows_exactly_the_data(tiny_report):
+    out, _ = tiny_report
+    markdown = (out / "report.md").read_text(encoding="utf-8")
+    for name in STUDIES:
+        data = study_data(out, name)
+        assert data["paragraphs"]
+        for paragraph in data["paragraphs"]:
+            assert paragraph in markdown
+        for table in data["tables"]:
+            for row in table["rows"]:
+                cells = [str(cell).replace("|", "\\|") for cell in row]
+                assert "| " + " | ".join(cells) + " |" in markdown
+
+
+def test_headline_numbers_are_the_records_numbers(tiny_report):
+    out, _ = tiny_report
+    data = study_data(out, "integrators")
+    rate = data["summary"]["headline_rate"]
+    (rk4,) = [
+        r["result"]
+        for r in data["records"]
+        if r["params"] == {"kind": "accuracy", "method": "rk4", "rate": rate, "seconds": 2.0}
+    ]
+    assert data["summary"]["headline"]["rk4"]["max_angle_error"] == rk4["max_angle_error"]
+    text = " ".join(data["paragraphs"])
+    assert f"RK4's largest orientation error is {format_number(rk4['max_angle_error'])} rad" in (
+        text
+    )
+    assert rk4["max_angle_error"] < 1e-6  # RK4 at dt = 1/240 s over 2 s
+
+
+def test_a_finished_campaign_runs_nothing_again(tiny_report, monkeypatch):
+    out, first = tiny_report
+
+    def refuse(*_args):
+        raise AssertionError("a stored case was run again")
+
+    monkeypatch.setattr(validation.execution, "execute_case", refuse)
+    again = run_campaign(out=out, scale="tiny", log=quiet)
+    assert sum(again.executed.values()) == 0
+    assert again.cached == {name: first.executed[name] for name in STUDIES}
+
+
+def test_an_interrupted_campaign_resumes_where_it_stopped(tmp_path):
+    first = run_campaign(out=tmp_path, scale="tiny", only=["long_runs"], log=quiet)
+    records = sorted((tmp_path / "data" / "cases" / "long_runs").glob("*.json"))
+    for path in records[:3]:
+        path.unlink()  # as if the run had stopped before these cases
+    again = run_campaign(out=tmp_path, scale="tiny", only=["long_runs"], log=quiet)
+    assert again.executed == {"long_runs": 3}
+    assert again.cached == {"long_runs": first.executed["long_runs"] - 3}
+
+
+def test_local_worker_processes(tmp_path, monkeypatch):
+    monkeypatch.setenv("PYTHONPATH", str(REPO))
+    outcome = run_campaign(out=tmp_path, scale="tiny", only=["long_runs"], jobs=2, log=quiet)
+    records = study_data(tmp_path, "long_runs")["records"]
+    assert outcome.executed["long_runs"] == len(records) > 1
+
+
+def test_command_line_refuses_unknown_studies(capsys):
+    assert main(["--only", "no_such_study"]) == 2
+    assert "no_such_study" in capsys.readouterr().err
+    assert main(["--list"]) == 0
+
+
+def test_dask_local_cluster(tmp_path, monkeypatch):
+    distributed = pytest.importorskip(
+        "dask.distributed",
+        reason="dask.distributed is not installed: pip install 'thesis_rbd[validation]'",
+    )
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        status = main(
+            [
+                "--tiny",
+                "--only",
+                "long_runs",
+                "--out",
+                str(tmp_path),
+                "--scheduler",
+                cluster.scheduler_address,
+            ]
+        )
+    assert status == 0
+    data = study_data(tmp_path, "long_runs")
+    assert len(data["records"]) == data["case_count"] > 0
+    assert (tmp_path / "report.md").is_file()
