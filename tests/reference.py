@@ -15,11 +15,15 @@ import numpy as np
 from scipy.optimize import linprog
 
 __all__ = [
+    "MESH_KINDS",
     "boxes_overlap_lp",
     "brute_force_pairs",
     "cluster_reference",
     "covariance_axes_reference",
+    "least_penetration_reference",
     "point_triangle_distance",
+    "random_mesh",
+    "random_pose",
     "tri_box_lp",
     "tri_tri_lp",
     "tri_tri_sat",
@@ -300,3 +304,42 @@ def random_pose(seed: int, reach: float) -> np.ndarray:
     direction = rng.normal(size=3)
     T[:3, 3] = direction / np.linalg.norm(direction) * reach * rng.uniform(0.0, 1.0)
     return T
+
+
+def least_penetration_reference(P, Q) -> tuple[np.ndarray, float]:
+    """Normal (B -> A) and depth of the feature pair of least penetration, by enumeration.
+
+    Candidates: Q's unit normal, minus P's unit normal, and the 9 unit edge-edge directions
+    oriented to point out of Q (positive on Q's normal minus P's normal); depth along u is
+    ``max(Q.u) - min(P.u)``. Mirrors the documented definition with plain NumPy.
+    """
+    P = np.asarray(P, float)
+    Q = np.asarray(Q, float)
+    na = np.cross(P[1] - P[0], P[2] - P[1])
+    nb = np.cross(Q[1] - Q[0], Q[2] - Q[1])
+    side = np.zeros(3)
+    candidates = []
+    if np.linalg.norm(nb) > 0:
+        candidates.append(nb / np.linalg.norm(nb))
+        side += candidates[-1]
+    if np.linalg.norm(na) > 0:
+        candidates.append(-na / np.linalg.norm(na))
+        side += candidates[-1]
+    apart = P.mean(0) - Q.mean(0)
+    for i in range(3):
+        for j in range(3):
+            e = P[(i + 1) % 3] - P[i]
+            f = Q[(j + 1) % 3] - Q[j]
+            c = np.cross(e, f)
+            if np.linalg.norm(c) <= 1e-9 * np.linalg.norm(e) * np.linalg.norm(f) or not c.any():
+                continue
+            u = c / np.linalg.norm(c)
+            s = u @ side
+            if s < 0 or (s == 0 and u @ apart < 0):
+                u = -u
+            candidates.append(u)
+    if not candidates:
+        candidates = [apart / np.linalg.norm(apart) if apart.any() else np.array([0, 0, 1.0])]
+    depths = [max(Q @ u) - min(P @ u) for u in candidates]
+    k = int(np.argmin(depths))
+    return candidates[k], max(depths[k], 0.0)

@@ -179,6 +179,20 @@ def _dist2(a, b):
 
 
 @njit
+def _is_flat(t, n):
+    """Whether triangle t (normal n = an edge cross product) is (nearly) a segment or point.
+
+    Relative test: |n| <= 1e-9 * (longest edge)^2, i.e. the triangle's height is below 1e-9
+    of its size; such a plane is rounding noise and must not be used for clipping.
+    """
+    longest = 0.0
+    for i in range(3):
+        d = sub(t[(i + 1) % 3], t[i])
+        longest = max(longest, dot(d, d))
+    return dot(n, n) <= 1e-18 * longest * longest
+
+
+@njit
 def _closest_features_midpoint(p, q):
     """Midpoint of the closest feature pair of two triangles (tuples of 3 corners)."""
     best = np.inf
@@ -194,7 +208,7 @@ def _closest_features_midpoint(p, q):
         s = p if side == 0 else q
         t = q if side == 0 else p
         n = cross(sub(t[1], t[0]), sub(t[2], t[0]))
-        if dot(n, n) == 0.0:
+        if _is_flat(t, n):
             continue
         # Corners of s on the face of t.
         for i in range(3):
@@ -260,7 +274,7 @@ def _pair_points(p, q, ida, idb):
     nb = cross(sub(q[1], q[0]), sub(q[2], q[1]))
     a0, a1, ka, da = _plane_section(p, ida, nb, q[0])
     b0, b1, kb, db = _plane_section(q, idb, na, p[0])
-    degenerate = dot(na, na) == 0.0 or dot(nb, nb) == 0.0
+    degenerate = _is_flat(p, na) or _is_flat(q, nb)
     coplanar = (da[0] == 0.0 and da[1] == 0.0 and da[2] == 0.0) or (
         db[0] == 0.0 and db[1] == 0.0 and db[2] == 0.0
     )
