@@ -3,12 +3,14 @@
 A step runs only the stages the scene calls for (``World.stages``), each timed into
 ``World.profile``:
 
-    forces -> integrate
+    forces -> integrate -> bounds -> broad_phase -> narrow_phase -> contacts
 
-(the collision stages "bounds", "broad_phase", "narrow_phase", "contacts" and "sleep" join the
-pipeline with the collision issues). The plan is derived from the scene and refreshed whenever
-bodies or forces change, so a world without gravity or applied forces never gathers forces and
-a world of static bodies never integrates.
+The plan is derived from the scene and refreshed whenever bodies or forces change: no gravity
+or applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
+collision stages; no contact response wanted (a detection-only scene), no contacts stage. Two
+stages are also skipped step by step when they have nothing to do: the narrow phase when the
+broad phase found no candidate pair, the contact response when there is no contact; a skipped
+stage is not called and costs nothing.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from time import perf_counter
 import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
+from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.forces import (
     AppliedForces,
@@ -27,6 +30,7 @@ from thesis_rbd.dynamics.forces import (
     world_arm_to_body,
 )
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
+from thesis_rbd.dynamics.response import ContactSettings, ImpulseCache, resolve_contacts
 from thesis_rbd.geometry.mass import mass_properties
 from thesis_rbd.geometry.mesh import TriangleMesh
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate, quat_to_matrix
@@ -51,6 +55,21 @@ class World:
         ODE method for free motion.
     linear_drag, quadratic_drag, angular_drag : float
         Air resistance on every dynamic body: F = -k1 v - k2 |v| v, tau = -ka w.
+    contact_response : bool
+        False makes a detection-only world: contacts are found (``World.contacts``) but
+        bodies pass through each other.
+    contact_solver : {"pgs", "exact"}
+        Projected Gauss-Seidel or Lemke's exact method for the contact LCP.
+    contact_iterations : int
+        PGS sweeps per step.
+    friction_sides : int
+        Sides of the polygonal friction cone.
+    bounce_threshold : float
+        Contacts approaching slower than this (m/s) do not bounce.
+    slop : float
+        Penetration (m) the position projection leaves, so resting contacts persist.
+    penetration : {"toi", "projection"}
+        Step impacting islands back to the time of impact, or only project positions.
     """
 
     def __init__(
@@ -61,6 +80,13 @@ class World:
         linear_drag: float = 0.0,
         quadratic_drag: float = 0.0,
         angular_drag: float = 0.0,
+        contact_response: bool = True,
+        contact_solver: str = "pgs",
+        contact_iterations: int = 30,
+        friction_sides: int = 8,
+        bounce_threshold: float = 0.1,
+        slop: float = 1e-4,
+        penetration: str = "toi",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
@@ -78,7 +104,20 @@ class World:
         self._gravity_force = np.zeros((0, 3))
         self._external_force = self._gravity_force
         self._point_forces = PointForces.empty(0)
-        self._pipeline: list[tuple[str, object]] = []
+        self.contact_response = bool(contact_response)
+        self.contact_settings = ContactSettings(
+            solver=contact_solver,
+            iterations=contact_iterations,
+            friction_sides=friction_sides,
+            bounce_threshold=bounce_threshold,
+            slop=slop,
+            penetration=penetration,
+        )
+        self._collision = CollisionPipeline()
+        self._impulse_cache = ImpulseCache()
+        self._resolved: dict[str, np.ndarray] | None = None
+        self.contact_info: dict = {}
+        self._pipeline: list[tuple[str, object, object]] = []
         self._plan_stages()
 
     # ------------------------------------------------------------------ building the scene
@@ -171,6 +210,7 @@ class World:
             friction=friction,
             static=bool(static),
         )
+        self._collision.add_body(mesh)
         self._plan_stages()
         return index
 
@@ -206,18 +246,30 @@ class World:
     @property
     def stages(self) -> list[str]:
         """Names of the stages this scene needs, in pipeline order."""
-        return [name for name, _ in self._pipeline]
+        return [name for name, _, _ in self._pipeline]
 
     def _plan_stages(self) -> None:
-        """Derive the pipeline from the scene: only the effects it calls for."""
+        """Derive the pipeline from the scene: only the effects it calls for.
+
+        Each entry is (name, stage, guard): a stage whose guard returns False this step is
+        skipped without being called.
+        """
         b = self.bodies
         dynamic = bool(b.count) and not bool(np.all(b.static))
         gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
+        collides = dynamic and b.count >= 2
+        always = _always
         pipeline = []
         if gathers_forces:
-            pipeline.append(("forces", self._stage_forces))
+            pipeline.append(("forces", self._stage_forces, always))
         if dynamic:
-            pipeline.append(("integrate", self._stage_integrate))
+            pipeline.append(("integrate", self._stage_integrate, always))
+        if collides:
+            pipeline.append(("bounds", self._stage_bounds, always))
+            pipeline.append(("broad_phase", self._stage_broad_phase, always))
+            pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
+            if self.contact_response:
+                pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
         self._pipeline = pipeline
         self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
@@ -231,7 +283,9 @@ class World:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
         profile = self.profile
         for _ in range(int(n)):
-            for name, stage in self._pipeline:
+            for name, stage, guard in self._pipeline:
+                if not guard():
+                    continue
                 start = perf_counter()
                 stage()
                 entry = profile[name]
@@ -273,6 +327,53 @@ class World:
             pf.arm,
             pf.force,
         )
+
+    def _stage_bounds(self) -> None:
+        """World AABB of every body."""
+        self._collision.bounds(self.bodies, np.zeros(self.bodies.count))
+
+    def _stage_broad_phase(self) -> None:
+        """Sweep-and-prune: candidate pairs with at least one moving body."""
+        self._collision.broad_phase(resting=self.bodies.static)
+
+    def _has_candidates(self) -> bool:
+        return len(self._collision.candidate_pairs) > 0
+
+    def _stage_narrow_phase(self) -> None:
+        """OBBTree contacts of the candidate pairs."""
+        self._collision.narrow_phase(self.bodies)
+
+    def _has_contacts(self) -> bool:
+        return len(self._collision.contacts["depths"]) > 0
+
+    def _stage_contacts(self) -> None:
+        """Impulses with restitution and friction, time of impact, position projection."""
+        self._resolved, self.contact_info = resolve_contacts(
+            self.bodies,
+            self._collision.contacts,
+            self._external_force,
+            self.dt,
+            self.contact_settings,
+            self._impulse_cache,
+            self._collision,
+        )
+
+    @property
+    def contacts(self) -> dict[str, np.ndarray]:
+        """Contacts of the last step, world frame.
+
+        Keys: ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3), normals from
+        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b];
+        ``impulses`` (c, 3) (normal, t1, t2) applied by the contact stage. With a response,
+        these are the contacts the impulses acted at (for an impact, those at the time of
+        impact); in a detection-only world, the narrow phase's contacts with zero impulses.
+        """
+        if self.contact_response and self._resolved is not None and self._has_contacts():
+            source = self._resolved
+        else:
+            source = dict(self._collision.contacts)
+            source["impulses"] = np.zeros((len(source["depths"]), 3))
+        return {key: value.copy() for key, value in source.items()}
 
     # ------------------------------------------------------------------ accessors
     def _check_body(self, body) -> int:
@@ -350,3 +451,7 @@ class World:
         b = self.bodies
         dynamic = ~b.static
         return float(-np.sum(b.mass[dynamic] * (b.position[dynamic] @ self.gravity)))
+
+
+def _always() -> bool:
+    return True

@@ -1,0 +1,325 @@
+"""Narrow phase for a whole world: contacts of every candidate body pair in one kernel call.
+
+``collide`` answers one query from Python; a simulation step asks for hundreds, so the
+trees of all distinct meshes are concatenated once into a :class:`GeometrySet` (flat arrays
+plus offsets, the layout of pynndescent's flat trees) and :func:`contacts_for_pairs` walks the
+candidate pairs inside numba, calling the same traversal and contact kernels as ``collide``.
+Bodies sharing a mesh share its tree.
+
+For dynamics the contacts of a pair are reduced differently from ``collide``'s merge: points
+within the merge tolerance form a cluster (transitively) that becomes one contact at the
+cluster's centroid, with the normal of its deepest member and the largest depth. A vertex
+pressed into a face gives a small intersection polygon around the vertex; its centroid is the
+vertex, which puts the impulse where the touch is and not at one corner of the polygon (which
+would spin a ball landing on its pole).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.collision.collide import MERGE_FRACTION, traverse
+from thesis_rbd.collision.contacts import compute_contacts
+from thesis_rbd.collision.obbtree import OBBTree
+from thesis_rbd.spatial.quaternion import to_matrix_into
+
+__all__ = ["GeometrySet", "any_intersection", "contacts_for_pairs", "reduce_contacts"]
+
+
+class GeometrySet:
+    """The OBBTrees of a world's distinct meshes, concatenated into flat arrays.
+
+    Attributes
+    ----------
+    trees : list of OBBTree
+        One per distinct mesh, in order of first use.
+    node_start, vertex_start, face_start : (g + 1,) int64
+        Geometry k owns rows ``start[k]:start[k + 1]`` of the node, vertex and face arrays.
+    centers, rotations, half_extents, children : concatenated node arrays (float64, int32)
+    roots, leafless, depths : (g,) per-tree root code, variant and depth
+    vertices, faces : concatenated mesh arrays (faces index their own mesh's vertices)
+    merge_tolerance : (g,) float64
+        Contacts of a pair closer than the larger of the two meshes' values are merged.
+    """
+
+    def __init__(self, merge_fraction: float = 1e-3):
+        self.merge_fraction = merge_fraction
+        self.trees: list[OBBTree] = []
+        self._index: dict[int, int] = {}
+        self._pack()
+
+    def geometry_of(self, mesh) -> int:
+        """Index of ``mesh``'s tree, building it on first use (identity, not equality)."""
+        key = id(mesh)
+        if key not in self._index:
+            self._index[key] = len(self.trees)
+            self.trees.append(OBBTree(mesh))
+            self._pack()
+        return self._index[key]
+
+    def _pack(self) -> None:
+        trees = self.trees
+
+        def offsets(sizes):
+            return np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)]).astype(np.int64)
+
+        def stacked(arrays, shape, dtype):
+            return np.ascontiguousarray(
+                np.concatenate(arrays) if arrays else np.zeros((0, *shape), dtype), dtype=dtype
+            )
+
+        self.node_start = offsets([t.node_count for t in trees])
+        self.vertex_start = offsets([len(t.mesh.vertices) for t in trees])
+        self.face_start = offsets([len(t.mesh.faces) for t in trees])
+        self.centers = stacked([t.centers for t in trees], (3,), np.float64)
+        self.rotations = stacked([t.rotations for t in trees], (3, 3), np.float64)
+        self.half_extents = stacked([t.half_extents for t in trees], (3,), np.float64)
+        self.children = stacked([t.children for t in trees], (2,), np.int32)
+        self.roots = np.array([t.root for t in trees], dtype=np.int64)
+        self.leafless = np.array([t.leafless for t in trees], dtype=np.bool_)
+        self.depths = np.array([t.depth for t in trees], dtype=np.int64)
+        self.vertices = stacked([t.mesh.vertices for t in trees], (3,), np.float64)
+        self.faces = stacked([t.mesh.faces for t in trees], (3,), np.int64)
+        self.merge_tolerance = np.array(
+            [max(self.merge_fraction, MERGE_FRACTION) * t.scale for t in trees], dtype=np.float64
+        )
+        self.local_lower = stacked([t.mesh.bounds[:1] for t in trees], (3,), np.float64)
+        self.local_upper = stacked([t.mesh.bounds[1:] for t in trees], (3,), np.float64)
+
+    def arrays(self) -> tuple:
+        """The flat arrays in the order ``contacts_for_pairs`` takes them."""
+        return (
+            self.node_start,
+            self.vertex_start,
+            self.face_start,
+            self.centers,
+            self.rotations,
+            self.half_extents,
+            self.children,
+            self.roots,
+            self.leafless,
+            self.depths,
+            self.vertices,
+            self.faces,
+            self.merge_tolerance,
+        )
+
+
+@njit
+def _cluster_root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit
+def reduce_contacts(points, normals, depths, faces, tolerance):
+    """One contact per cluster of points closer than ``tolerance`` (transitively).
+
+    Parameters
+    ----------
+    points, normals : (c, 3) float64
+    depths : (c,) float64
+    faces : (c, 2) int64
+    tolerance : float
+
+    Returns
+    -------
+    points, normals, depths, faces
+        Per cluster, in order of first member: the centroid of its points, the normal and
+        faces of its deepest member, and that depth.
+    """
+    c = points.shape[0]
+    parent = np.arange(c)
+    order = np.argsort(points[:, 0], kind="mergesort")
+    tol2 = tolerance * tolerance
+    for ii in range(c):
+        i = order[ii]
+        jj = ii + 1
+        while jj < c and points[order[jj], 0] - points[i, 0] <= tolerance:
+            j = order[jj]
+            d2 = 0.0
+            for a in range(3):
+                d2 += (points[i, a] - points[j, a]) ** 2
+            if d2 <= tol2:
+                ri, rj = _cluster_root(parent, i), _cluster_root(parent, j)
+                if ri != rj:
+                    parent[max(ri, rj)] = min(ri, rj)
+            jj += 1
+    label = np.full(c, -1)
+    clusters = 0
+    for i in range(c):
+        r = _cluster_root(parent, i)
+        if label[r] < 0:
+            label[r] = clusters
+            clusters += 1
+    out_points = np.zeros((clusters, 3))
+    out_normals = np.zeros((clusters, 3))
+    out_depths = np.full(clusters, -np.inf)
+    out_faces = np.zeros((clusters, 2), np.int64)
+    members = np.zeros(clusters)
+    for i in range(c):
+        k = label[_cluster_root(parent, i)]
+        members[k] += 1.0
+        for a in range(3):
+            out_points[k, a] += points[i, a]
+        if depths[i] > out_depths[k]:
+            out_depths[k] = depths[i]
+            out_normals[k] = normals[i]
+            out_faces[k] = faces[i]
+    for k in range(clusters):
+        out_points[k] /= members[k]
+    return out_points, out_normals, out_depths, out_faces
+
+
+@njit
+def _mesh_to_world(i, position, orientation, center_of_mass_local):
+    """(4, 4) transform of body i's mesh frame: x = R (p - c) + position."""
+    T = np.eye(4)
+    R = np.empty((3, 3))
+    to_matrix_into(orientation[i], R)
+    for a in range(3):
+        for b in range(3):
+            T[a, b] = R[a, b]
+        T[a, 3] = position[i, a] - (
+            R[a, 0] * center_of_mass_local[i, 0]
+            + R[a, 1] * center_of_mass_local[i, 1]
+            + R[a, 2] * center_of_mass_local[i, 2]
+        )
+    return T
+
+
+@njit
+def contacts_for_pairs(
+    pairs, geometry, geometry_arrays, position, orientation, center_of_mass_local
+):
+    """Contacts of every candidate body pair, world frame.
+
+    Parameters
+    ----------
+    pairs : (p, 2) int64
+        Candidate body pairs [i, j].
+    geometry : (n,) int64
+        Geometry (tree) index of each body.
+    geometry_arrays : tuple
+        ``GeometrySet.arrays()``.
+    position, orientation, center_of_mass_local : body state arrays (n, 3), (n, 4), (n, 3)
+
+    Returns
+    -------
+    body_a, body_b : (c,) int64
+        The pair of each contact (a = i, b = j).
+    points, normals : (c, 3) float64
+        World contact points and unit normals from b towards a.
+    depths : (c,) float64
+        Penetration depths >= 0.
+    faces : (c, 2) int64
+        [face of a, face of b].
+    stats : (3,) int64
+        Box tests, triangle-box tests and triangle tests summed over all pairs.
+    """
+    (
+        node_start, vertex_start, face_start, centers, rotations, halves, children,
+        roots, leafless, depths, vertices, faces, merge_tolerance,
+    ) = geometry_arrays  # fmt: skip
+    results = []
+    stats = np.zeros(3, np.int64)
+    total = 0
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        gi, gj = geometry[i], geometry[j]
+        ni0, ni1 = node_start[gi], node_start[gi + 1]
+        nj0, nj1 = node_start[gj], node_start[gj + 1]
+        Vi = vertices[vertex_start[gi] : vertex_start[gi + 1]]
+        Vj = vertices[vertex_start[gj] : vertex_start[gj + 1]]
+        Fi = faces[face_start[gi] : face_start[gi + 1]]
+        Fj = faces[face_start[gj] : face_start[gj + 1]]
+        Ti = _mesh_to_world(i, position, orientation, center_of_mass_local)
+        Tj = _mesh_to_world(j, position, orientation, center_of_mass_local)
+        tri_pairs, bv, box, tri = traverse(
+            False,
+            centers[ni0:ni1], rotations[ni0:ni1], halves[ni0:ni1], children[ni0:ni1],
+            roots[gi], leafless[gi], Vi, Fi,
+            centers[nj0:nj1], rotations[nj0:nj1], halves[nj0:nj1], children[nj0:nj1],
+            roots[gj], leafless[gj], Vj, Fj,
+            Ti, Tj, 2 * (depths[gi] + depths[gj]) + 8,
+        )  # fmt: skip
+        stats[0] += bv
+        stats[1] += box
+        stats[2] += tri
+        if tri_pairs.shape[0] == 0:
+            continue
+        # B's mesh frame in A's: R_ab = R_a^T R_b, t_ab = R_a^T (t_b - t_a)
+        Rab = Ti[:3, :3].T @ Tj[:3, :3]
+        tab = Ti[:3, :3].T @ (Tj[:3, 3] - Ti[:3, 3])
+        pts, nrm, dep, fcs = compute_contacts(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
+        pts, nrm, dep, fcs = reduce_contacts(
+            pts, nrm, dep, fcs, max(merge_tolerance[gi], merge_tolerance[gj])
+        )
+        k = dep.shape[0]
+        world_points = np.empty((k, 3))
+        world_normals = np.empty((k, 3))
+        for r in range(k):
+            for a in range(3):
+                world_points[r, a] = Ti[a, 3] + (
+                    Ti[a, 0] * pts[r, 0] + Ti[a, 1] * pts[r, 1] + Ti[a, 2] * pts[r, 2]
+                )
+                world_normals[r, a] = (
+                    Ti[a, 0] * nrm[r, 0] + Ti[a, 1] * nrm[r, 1] + Ti[a, 2] * nrm[r, 2]
+                )
+        results.append((i, j, world_points, world_normals, dep, fcs))
+        total += k
+
+    body_a = np.empty(total, np.int64)
+    body_b = np.empty(total, np.int64)
+    points = np.empty((total, 3))
+    normals = np.empty((total, 3))
+    out_depths = np.empty(total)
+    out_faces = np.empty((total, 2), np.int64)
+    c = 0
+    for i, j, wp, wn, dp, fc in results:
+        k = dp.shape[0]
+        body_a[c : c + k] = i
+        body_b[c : c + k] = j
+        points[c : c + k] = wp
+        normals[c : c + k] = wn
+        out_depths[c : c + k] = dp
+        out_faces[c : c + k] = fc
+        c += k
+    return body_a, body_b, points, normals, out_depths, out_faces, stats
+
+
+@njit
+def any_intersection(pairs, geometry, geometry_arrays, position, orientation, center_of_mass_local):
+    """True if any candidate body pair has an intersecting triangle pair (stops at the first).
+
+    Same arguments as ``contacts_for_pairs``; the yes/no query of time-of-impact searches.
+    """
+    (
+        node_start, vertex_start, face_start, centers, rotations, halves, children,
+        roots, leafless, depths, vertices, faces, _,
+    ) = geometry_arrays  # fmt: skip
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        gi, gj = geometry[i], geometry[j]
+        ni0, ni1 = node_start[gi], node_start[gi + 1]
+        nj0, nj1 = node_start[gj], node_start[gj + 1]
+        tri_pairs, _, _, _ = traverse(
+            True,
+            centers[ni0:ni1], rotations[ni0:ni1], halves[ni0:ni1], children[ni0:ni1],
+            roots[gi], leafless[gi],
+            vertices[vertex_start[gi] : vertex_start[gi + 1]],
+            faces[face_start[gi] : face_start[gi + 1]],
+            centers[nj0:nj1], rotations[nj0:nj1], halves[nj0:nj1], children[nj0:nj1],
+            roots[gj], leafless[gj],
+            vertices[vertex_start[gj] : vertex_start[gj + 1]],
+            faces[face_start[gj] : face_start[gj + 1]],
+            _mesh_to_world(i, position, orientation, center_of_mass_local),
+            _mesh_to_world(j, position, orientation, center_of_mass_local),
+            2 * (depths[gi] + depths[gj]) + 8,
+        )  # fmt: skip
+        if tri_pairs.shape[0] > 0:
+            return True
+    return False

@@ -1,0 +1,439 @@
+"""Contact response: the "contacts" stage of a step (thesis ch. 7 and its further work).
+
+Given the contacts found at the end of the integration step, in order:
+
+1. velocities: v = P / M and w = I^-1 L for every body, I^-1 = R I_body^-1 R^T;
+2. contact frames: arms from each centre of mass, (n, t1, t2) bases, the combined material
+   (restitution e_a e_b, friction sqrt(mu_a mu_b), DESIGN.md) and the restitution bias
+   e u_n- of every contact approaching faster than ``bounce_threshold``;
+3. islands of bodies joined by contacts (static bodies join nothing);
+4. time of impact (``penetration="toi"``): an island with an impact is stepped back by the
+   time its deepest impacting contact has spent inside, t = depth / |u_n|, along its ballistic
+   path (exact for constant external force, so a ball bounces to the right height);
+5. the velocity-level contact problem of each island, solved exactly (Lemke) or by projected
+   Gauss-Seidel with warm starts from the previous step's impulses (``contact_solver``);
+6. the stepped-back islands move forward again by the same time with their new velocities;
+7. position projection: the penetration that remains beyond ``slop`` is removed by a
+   frictionless normal solve on pseudo-velocities, which moves bodies without adding momentum
+   (so it can never add energy to the velocities).
+
+The result is written back into the momenta P = M v and L = I w.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.dynamics.contact_solver import (
+    contact_basis,
+    relative_velocity,
+    solve_exact,
+    solve_pgs,
+)
+from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.spatial.quaternion import mul, normalize, to_matrix_into
+
+__all__ = ["ContactSettings", "ImpulseCache", "resolve_contacts"]
+
+_SOLVERS = ("pgs", "exact")
+_PENETRATION = ("toi", "projection")
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """How contacts are resolved.
+
+    Attributes
+    ----------
+    solver : {"pgs", "exact"}
+        Projected Gauss-Seidel (fast, iterative) or Lemke's method (exact, cubic per island).
+    iterations : int
+        PGS sweeps per step (also used for the position projection).
+    friction_sides : int
+        Sides of the polygon approximating the friction cone (>= 3).
+    bounce_threshold : float
+        Contacts approaching slower than this (m/s) get no restitution, so resting bodies do
+        not jitter.
+    slop : float
+        Penetration (m) left uncorrected by the position projection; keeps resting contacts
+        alive from step to step.
+    penetration : {"toi", "projection"}
+        "toi" steps islands with an impact back to the time of impact before solving and
+        projects only what remains; "projection" solves at the penetrated state and projects.
+    """
+
+    solver: str = "pgs"
+    iterations: int = 30
+    friction_sides: int = 8
+    bounce_threshold: float = 0.1
+    slop: float = 1e-4
+    penetration: str = "toi"
+
+    def __post_init__(self):
+        if self.solver not in _SOLVERS:
+            raise ValueError(f"unknown contact solver {self.solver!r}; choose one of {_SOLVERS}")
+        if self.penetration not in _PENETRATION:
+            raise ValueError(
+                f"unknown penetration handling {self.penetration!r}; choose one of {_PENETRATION}"
+            )
+        if int(self.iterations) != self.iterations or self.iterations < 1:
+            raise ValueError(f"iterations must be an integer >= 1, got {self.iterations!r}")
+        if int(self.friction_sides) != self.friction_sides or self.friction_sides < 3:
+            raise ValueError(f"friction_sides must be an integer >= 3, got {self.friction_sides!r}")
+        for name in ("bounce_threshold", "slop"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+
+
+class ImpulseCache:
+    """Impulses of the previous step's contacts, to warm-start PGS on the next.
+
+    A contact is recognised by its body pair and triangle pair; the four indices are hashed
+    into one int64 key (a clash only costs a worse first guess, never a wrong answer).
+    """
+
+    def __init__(self):
+        self._keys = np.zeros(0, np.int64)
+        self._impulses = np.zeros((0, 3))
+
+    @staticmethod
+    def keys(contacts) -> np.ndarray:
+        """(c,) int64 keys of a contact set (body pair and face pair)."""
+        with np.errstate(over="ignore"):
+            key = contacts["body_a"].astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+            key ^= contacts["body_b"].astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F)
+            key ^= contacts["faces"][:, 0].astype(np.uint64) * np.uint64(0x165667B19E3779F9)
+            key ^= contacts["faces"][:, 1].astype(np.uint64) * np.uint64(0x27D4EB2F165667C5)
+        return key.view(np.int64)
+
+    def lookup(self, contacts) -> np.ndarray:
+        """(c, 3) impulses of the matching previous contacts, zero where there is none."""
+        keys = self.keys(contacts)
+        warm = np.zeros((len(keys), 3))
+        if len(self._keys) and len(keys):
+            where = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
+            found = self._keys[where] == keys
+            warm[found] = self._impulses[where[found]]
+        return warm
+
+    def store(self, contacts, impulse: np.ndarray) -> None:
+        keys = self.keys(contacts)
+        order = np.argsort(keys, kind="stable")
+        self._keys, self._impulses = keys[order], impulse[order]
+
+
+@njit
+def body_velocities(
+    count, orientation, linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body
+):
+    """v (n, 3), w (n, 3) and the world inverse inertia I^-1 = R I_body^-1 R^T (n, 3, 3)."""
+    v = np.empty((count, 3))
+    w = np.empty((count, 3))
+    inverse_inertia = np.empty((count, 3, 3))
+    R = np.empty((3, 3))
+    for i in range(count):
+        to_matrix_into(orientation[i], R)
+        Ii = R @ inverse_inertia_body[i] @ R.T
+        inverse_inertia[i] = Ii
+        for a in range(3):
+            v[i, a] = linear_momentum[i, a] * inverse_mass[i]
+            w[i, a] = (
+                Ii[a, 0] * angular_momentum[i, 0]
+                + Ii[a, 1] * angular_momentum[i, 1]
+                + Ii[a, 2] * angular_momentum[i, 2]
+            )
+    return v, w, inverse_inertia
+
+
+@njit
+def _write_momenta(
+    touched, orientation, inertia_body, inverse_mass, v, w, linear_momentum, angular_momentum
+):
+    """P = M v and L = R I_body R^T w for the touched dynamic bodies."""
+    R = np.empty((3, 3))
+    for i in range(touched.shape[0]):
+        if not touched[i] or inverse_mass[i] == 0.0:
+            continue
+        to_matrix_into(orientation[i], R)
+        I = R @ inertia_body[i] @ R.T
+        for a in range(3):
+            linear_momentum[i, a] = v[i, a] / inverse_mass[i]
+            angular_momentum[i, a] = I[a, 0] * w[i, 0] + I[a, 1] * w[i, 1] + I[a, 2] * w[i, 2]
+
+
+@njit
+def _turn(orientation, i, rx, ry, rz):
+    """Rotate body i's orientation by the rotation vector (rx, ry, rz) (world frame)."""
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if angle == 0.0:
+        return
+    s = math.sin(0.5 * angle) / angle
+    turn = (rx * s, ry * s, rz * s, math.cos(0.5 * angle))
+    q = normalize(mul(turn, orientation[i]))
+    for k in range(4):
+        orientation[i, k] = q[k]
+
+
+@njit
+def _move_ballistic(bodies_to_move, t, v, w, acceleration, position, orientation):
+    """Move bodies along x(t) = x + v t + a t^2 / 2, v(t) = v + a t, q turned by w t."""
+    for i in range(bodies_to_move.shape[0]):
+        if not bodies_to_move[i]:
+            continue
+        for a in range(3):
+            position[i, a] += v[i, a] * t + 0.5 * acceleration[i, a] * t * t
+            v[i, a] += acceleration[i, a] * t
+        _turn(orientation, i, w[i, 0] * t, w[i, 1] * t, w[i, 2] * t)
+
+
+@njit
+def _normal_velocities(contacts, bodies):
+    """u . n (c,) of every contact: negative while approaching."""
+    c = contacts[0].shape[0]
+    u = np.empty(c)
+    for k in range(c):
+        u[k] = relative_velocity(k, 0, contacts, bodies)
+    return u
+
+
+@njit
+def _solve_islands(
+    solver, iterations, sides, island_start, contacts, bias, friction, bodies, impulse
+):
+    """Solve each island's contact problem on its slice of the island-sorted contacts.
+
+    Returns the worst Lemke status (0 when every island was solved exactly, or with PGS).
+    """
+    body_a, body_b, arm_a, arm_b, basis = contacts
+    worst = 0
+    for isl in range(island_start.shape[0] - 1):
+        s, e = island_start[isl], island_start[isl + 1]
+        sub = (body_a[s:e], body_b[s:e], arm_a[s:e], arm_b[s:e], basis[s:e])
+        if solver == 1:
+            status = solve_exact(sides, sub, bias[s:e], friction[s:e], bodies, impulse[s:e])
+            worst = max(worst, status)
+        else:
+            solve_pgs(iterations, sides, sub, bias[s:e], friction[s:e], bodies, impulse[s:e])
+    return worst
+
+
+@njit
+def _apply_pseudo_motion(count, dx, dtheta, position, orientation):
+    """Move bodies by pseudo-velocities integrated over unit time (position projection)."""
+    for i in range(count):
+        for a in range(3):
+            position[i, a] += dx[i, a]
+        _turn(orientation, i, dtheta[i, 0], dtheta[i, 1], dtheta[i, 2])
+
+
+def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache, detector):
+    """Apply the contact response of one step to the body state, in place.
+
+    Parameters
+    ----------
+    world_bodies : BodyArrays
+        Body constants and state; momenta, positions and orientations are updated.
+    contacts : dict of arrays
+        ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3) world, normals from
+        b towards a; ``depths`` (c,) >= 0; ``faces`` (c, 2).
+    external_force : (n, 3) float64
+        The step's state-independent force, for the ballistic time-of-impact path.
+    dt : float
+        Step length; no island is stepped back further than this.
+    settings : ContactSettings
+    cache : ImpulseCache
+        Previous impulses for the warm start; updated with this step's.
+    detector : CollisionPipeline
+        Answers ``intersects(bodies, pairs)`` and ``contacts_of(bodies, pairs)`` for the
+        time-of-impact search.
+
+    Returns
+    -------
+    contacts : dict of arrays
+        The contacts the impulses act at (those at the time of impact for stepped-back
+        islands), with ``impulses`` (c, 3) = (lambda_n, lambda_t1, lambda_t2) added.
+    info : dict
+        ``islands``; ``impacts``, islands stepped back to their time of impact;
+        ``max_depth``, the largest penetration left after projection (estimated to first
+        order); ``lemke_failures``, worst Lemke status (0: all exact).
+    """
+    b = world_bodies
+    n = b.count
+    v, w, inverse_inertia = body_velocities(
+        n,
+        b.full("orientation"),
+        b.full("linear_momentum"),
+        b.full("angular_momentum"),
+        b.full("inverse_mass"),
+        b.full("inverse_inertia_body"),
+    )
+    bodies = (v, w, b.inverse_mass, inverse_inertia)
+    acceleration = external_force * b.inverse_mass[:, None]
+    body_rewind = np.zeros(n)
+    if settings.penetration == "toi":
+        contacts, body_rewind = _step_back_to_impact(
+            b, contacts, bodies, acceleration, dt, settings, detector
+        )
+
+    _, order, island_start = find_islands(n, contacts["body_a"], contacts["body_b"], b.static)
+    # island-sorted copies: each island's contacts are one contiguous slice
+    contacts = {key: value[order] for key, value in contacts.items()}
+    body_a, body_b, points = contacts["body_a"], contacts["body_b"], contacts["points"]
+    basis = contact_basis(np.ascontiguousarray(contacts["normals"]))
+    frame = (body_a, body_b, points - b.position[body_a], points - b.position[body_b], basis)
+    friction = np.sqrt(b.friction[body_a] * b.friction[body_b])
+    u_before = _normal_velocities(frame, bodies)
+    bounces = u_before < -settings.bounce_threshold
+    bias = np.where(bounces, b.restitution[body_a] * b.restitution[body_b] * u_before, 0.0)
+
+    impulse = cache.lookup(contacts)
+    lemke_failures = _solve_islands(
+        _SOLVERS.index(settings.solver),
+        settings.iterations,
+        settings.friction_sides,
+        island_start,
+        frame,
+        bias,
+        friction,
+        bodies,
+        impulse,
+    )
+    cache.store(contacts, impulse)
+
+    # stepped-back islands travel the rest of the step with their new velocities
+    for t in np.unique(body_rewind[body_rewind > 0]):
+        _move_ballistic(
+            body_rewind == t, t, v, w, acceleration, b.full("position"), b.full("orientation")
+        )
+    touched = np.zeros(n, bool)
+    touched[body_a] = True
+    touched[body_b] = True
+    _write_momenta(
+        touched,
+        b.full("orientation"),
+        b.full("inertia_body"),
+        b.full("inverse_mass"),
+        v,
+        w,
+        b.full("linear_momentum"),
+        b.full("angular_momentum"),
+    )
+    # contacts found at the time of impact are not projected: the bodies have moved on
+    depths = np.where(body_rewind[body_a] + body_rewind[body_b] > 0, 0.0, contacts["depths"])
+    max_depth = _project_positions(b, frame, depths, island_start, inverse_inertia, settings)
+    contacts["impulses"] = impulse
+    return contacts, {
+        "islands": len(island_start) - 1,
+        "impacts": len(np.unique(body_rewind[body_rewind > 0])),
+        "max_depth": max_depth,
+        "lemke_failures": int(lemke_failures),
+    }
+
+
+def _step_back_to_impact(b, contacts, bodies, acceleration, dt, settings, detector):
+    """Move each island with an impact back to its time of impact; recompute its contacts.
+
+    An impact is a contact approaching faster than the bounce threshold. The island's bodies
+    retrace their ballistic path; bisection on the yes/no intersection query finds the last
+    time before the present at which they did not touch, to dt / 2^12. Islands already
+    touching at the start of the step (resting contact) are left where they are.
+
+    Returns the new contact set and the time each body was stepped back (n,).
+    """
+    v, w = bodies[0], bodies[1]
+    position, orientation = b.full("position"), b.full("orientation")
+    n = b.count
+    body_rewind = np.zeros(n)
+    body_a, body_b = contacts["body_a"], contacts["body_b"]
+    if len(body_a) == 0:
+        return contacts, body_rewind
+    basis = contact_basis(np.ascontiguousarray(contacts["normals"]))
+    points = contacts["points"]
+    frame = (body_a, body_b, points - b.position[body_a], points - b.position[body_b], basis)
+    impacting = _normal_velocities(frame, bodies) < -settings.bounce_threshold
+    if not impacting.any():
+        return contacts, body_rewind
+    body_island, _, _ = find_islands(n, body_a, body_b, b.static)
+    contact_island = np.where(b.static[body_a], body_island[body_b], body_island[body_a])
+    rewound_contacts = np.zeros(len(body_a), bool)
+    for island in np.unique(contact_island[impacting]):
+        members = body_island == island
+        in_island = contact_island == island
+        pairs = np.unique(np.stack([body_a[in_island], body_b[in_island]], axis=1), axis=0)
+        t = _bisect_time_of_impact(b, members, pairs, v, w, acceleration, dt, detector)
+        if t > 0.0:
+            body_rewind[members] = t
+            rewound_contacts |= in_island
+    if not rewound_contacts.any():
+        return contacts, body_rewind
+    pairs = np.unique(
+        np.stack([body_a[rewound_contacts], body_b[rewound_contacts]], axis=1), axis=0
+    )
+    fresh = detector.contacts_of(b, np.ascontiguousarray(pairs))
+    kept = ~rewound_contacts
+    merged = {key: np.concatenate([contacts[key][kept], fresh[key]]) for key in fresh}
+    del position, orientation
+    return merged, body_rewind
+
+
+def _bisect_time_of_impact(b, members, pairs, v, w, acceleration, dt, detector, halvings=12):
+    """Step ``members`` back to just inside first contact; return how far back (s).
+
+    Bodies are left at the found time (touching, depth ~ speed * dt / 2^halvings). Returns 0
+    (and restores them) when they were already touching at the start of the step.
+    """
+    position, orientation = b.full("position"), b.full("orientation")
+    at = 0.0
+
+    def move_to(t):
+        nonlocal at
+        _move_ballistic(members, at - t, v, w, acceleration, position, orientation)
+        at = t
+
+    move_to(dt)
+    if detector.intersects(b, pairs):
+        move_to(0.0)
+        return 0.0
+    inside, outside = 0.0, dt
+    for _ in range(halvings):
+        middle = 0.5 * (inside + outside)
+        move_to(middle)
+        if detector.intersects(b, pairs):
+            inside = middle
+        else:
+            outside = middle
+    move_to(inside)
+    return inside
+
+
+def _project_positions(b, frame, depths, island_start, inverse_inertia, settings) -> float:
+    """Remove penetration beyond ``slop`` by a frictionless normal solve on pseudo-velocities.
+
+    Returns the largest penetration left, estimated from the pseudo-velocities.
+    """
+    excess = np.maximum(depths - settings.slop, 0.0)
+    if not excess.any():
+        return float(depths.max(initial=0.0))
+    n = b.count
+    dx, dtheta = np.zeros((n, 3)), np.zeros((n, 3))
+    pseudo = (dx, dtheta, b.inverse_mass, inverse_inertia)
+    c = len(depths)
+    _solve_islands(
+        _SOLVERS.index(settings.solver),
+        settings.iterations,
+        3,
+        island_start,
+        frame,
+        -excess,
+        np.zeros(c),
+        pseudo,
+        np.zeros((c, 3)),
+    )
+    separation = _normal_velocities(frame, pseudo)
+    _apply_pseudo_motion(n, dx, dtheta, b.full("position"), b.full("orientation"))
+    return float(np.max(depths - separation, initial=0.0))
