@@ -185,3 +185,19 @@ def test_invalid_mode_tree_and_tolerance_raise():
         rbd.collide(tree.mesh, np.eye(4), tree, np.eye(4))
     with pytest.raises(ValueError, match="merge_tolerance"):
         rbd.collide(tree, np.eye(4), tree, np.eye(4), mode="contacts", merge_tolerance=-1)
+
+
+def test_fcl_adapter_quaternion_round_trip():
+    from scipy.spatial.transform import Rotation
+
+    from thesis_rbd.collision._fcl import fcl_transform, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
+
+    q = Rotation.random(5, random_state=4).as_quat()  # (x, y, z, w)
+    np.testing.assert_array_equal(quat_wxyz_to_xyzw(quat_xyzw_to_wxyz(q)), q)
+    np.testing.assert_array_equal(quat_xyzw_to_wxyz(q)[:, 0], q[:, 3])
+    T = random_pose(11, 3.0)
+    tf = fcl_transform(T)
+    np.testing.assert_allclose(tf.getRotation(), T[:3, :3], atol=1e-12)
+    np.testing.assert_allclose(tf.getTranslation(), T[:3, 3])
+    back = Rotation.from_quat(quat_wxyz_to_xyzw(tf.getQuatRotation())).as_matrix()
+    np.testing.assert_allclose(back, T[:3, :3], atol=1e-12)
