@@ -21,6 +21,7 @@ def _configured(variant: str) -> SweepAndPrune:
         # Falls back to a full re-sort in the middle of nearly every frame.
         sap = SweepAndPrune()
         sap._swap_budget = lambda: 3
+        sap._prediction_margin = np.inf  # never skip the insertion sort up front
         return sap
     if variant == "tiny_log":
         # Parks and resumes the insertion sort after every logged transition.
@@ -185,6 +186,7 @@ def test_identical_and_degenerate_boxes():
     added, removed = sap.update(lower, upper)
     want = brute_force_pairs(lower, upper)
     np.testing.assert_array_equal(added, want)
+    assert removed.shape == (0, 2)
     np.testing.assert_array_equal(sap.pairs, want)
     # Identical unit boxes 0 and 1, the point box 2 at their corner, the point 3 at the far
     # corner, box 4 sharing a face with 0 and 1: all touch, so all overlap (closed intervals).
@@ -224,6 +226,30 @@ def test_public_name_and_output_types():
     assert added.shape == (0, 2) and len(sap) == 2
     with pytest.raises(ValueError):
         sap.pairs[0:1] = 1  # read-only view of the state
+
+
+def test_fallback_mid_frame_and_up_front():
+    rng = np.random.default_rng(5)
+    centre = rng.uniform(0, 20, (400, 3))
+    oracle = BroadPhaseOracle()
+    sap = _configured("tiny_budget")
+    sap.update(centre - 0.5, centre + 0.5)
+    oracle.update(centre - 0.5, centre + 0.5)
+    centre += rng.normal(0, 0.05, centre.shape)
+    before = sap.pairs.copy()
+    added, removed = sap.update(centre - 0.5, centre + 0.5)
+    # Abandoned after a few swaps, then rebuilt: still exact.
+    assert sap.stats["full_resort"] and 3 < sap.stats["swaps"] < 20
+    _check_frame(sap, oracle, before, added, removed, *oracle.update(centre - 0.5, centre + 0.5))
+    sap = SweepAndPrune()
+    sap.update(centre - 0.5, centre + 0.5)
+    centre[:200] = rng.uniform(0, 20, (200, 3))
+    before = sap.pairs.copy()
+    added, removed = sap.update(centre - 0.5, centre + 0.5)
+    # Half the boxes teleported: predicted far over budget, no insertion sort at all.
+    assert sap.stats["full_resort"] and sap.stats["swaps"] == 0
+    assert sap.stats["predicted_swaps"] > 4 * sap.stats["budget"]
+    _check_frame(sap, oracle, before, added, removed, *oracle.update(centre - 0.5, centre + 0.5))
 
 
 def test_coherent_frames_stay_incremental_and_count_swaps():

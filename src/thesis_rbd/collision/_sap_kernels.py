@@ -318,6 +318,31 @@ def insertion_sort_frame(
 
 
 @njit
+def predict_swaps(lower, upper, old_lower, old_upper):
+    """Rough swap count of the coming insertion sort, O(n), from how far endpoints moved.
+
+    Assumes endpoints spread uniformly over each axis's extent: an endpoint moving by d
+    passes about d * (2n / extent) others, and each swap moves two endpoints relative to each
+    other. Cheap enough to run every frame; it only has to tell a coherent frame from one
+    where boxes teleport (orders of magnitude apart), the swap budget is the safety net.
+    """
+    n = lower.shape[0]
+    total = 0.0
+    for a in range(3):
+        lo_min = np.inf
+        hi_max = -np.inf
+        moved = 0.0
+        for i in range(n):
+            lo_min = min(lo_min, old_lower[i, a])
+            hi_max = max(hi_max, old_upper[i, a])
+            moved += abs(lower[i, a] - old_lower[i, a]) + abs(upper[i, a] - old_upper[i, a])
+        extent = hi_max - lo_min
+        if extent > 0.0:
+            total += 0.5 * moved * (2 * n) / extent
+    return total
+
+
+@njit
 def collect_events(keys, flags, meta, touched):
     """Net events of a frame from its touched pairs; clears the marks, drops ended pairs.
 

