@@ -32,15 +32,24 @@ class BenchmarkSuiteStudy:
         ``{scale: -k expression or None}`` for "full", "quick" and "tiny".
     max_time : dict
         ``{scale: seconds}``: pytest-benchmark's --benchmark-max-time per benchmark.
-    size_key, series_key : str
-        ``extra_info`` keys of the problem size (x axis) and of the curve a benchmark
-        belongs to.
+    size_key : str
+        ``extra_info`` key of the problem size (x axis of the scaling figure).
+    series_key : str or tuple of str
+        ``extra_info`` key(s) naming the curve a benchmark belongs to; a peer's curve is
+        its peer name followed by the same keys' values.
     size_label : str
         x-axis label of the scaling figure.
     peer_series : dict, optional
         Peer name (``extra_info["peer"]`` when a string, else the test function's name) ->
         series key, so that a peer is drawn with its style from
         :data:`validation.plotting.METHOD_STYLES`.
+    ours_prefix : str, optional
+        Name put before our curves' series values (e.g. "SweepAndPrune"); none by default.
+    peer_series_keys : tuple of str
+        ``extra_info`` keys whose values follow a peer's name in its curve's name (e.g.
+        ``("motion",)``); none by default.
+    scaling_tests : tuple of str, optional
+        Test functions drawn in the scaling figure; all by default.
     """
 
     def __init__(
@@ -54,6 +63,9 @@ class BenchmarkSuiteStudy:
         series_key,
         size_label,
         peer_series=None,
+        ours_prefix=None,
+        peer_series_keys=(),
+        scaling_tests=None,
     ):
         self.NAME = name
         self.TITLE = title
@@ -64,6 +76,10 @@ class BenchmarkSuiteStudy:
         self.series_key = series_key
         self.size_label = size_label
         self.peer_series = dict(peer_series or {})
+        self.series_keys = (series_key,) if isinstance(series_key, str) else tuple(series_key)
+        self.ours_prefix = ours_prefix
+        self.peer_series_keys = tuple(peer_series_keys)
+        self.scaling_tests = None if scaling_tests is None else tuple(scaling_tests)
 
     def cases(self, scale: str) -> list[Case]:
         """One timed case: the whole suite (or its ``scale`` subset) in one pytest run."""
@@ -88,11 +104,19 @@ class BenchmarkSuiteStudy:
         }
 
     def _series(self, bench):
-        peer = bench["extra_info"].get("peer")
+        """Curve name: ours by the series keys' values, a peer by its name plus
+        ``peer_series_keys``' values."""
+        info = bench["extra_info"]
+        peer = info.get("peer")
         if peer:
             name = peer if isinstance(peer, str) else bench["test"]
-            return self.peer_series.get(name, name)
-        return str(bench["extra_info"].get(self.series_key, bench["test"]))
+            values = [self.peer_series.get(name, name)]
+            values += [str(info[key]) for key in self.peer_series_keys if key in info]
+        else:
+            values = [str(info[key]) for key in self.series_keys if key in info]
+            if self.ours_prefix:
+                values.insert(0, self.ours_prefix)
+        return " ".join(values) if values else bench["test"]
 
     def summarise(self, records: list[dict], figures_dir) -> Section:
         """Ratio table against the peers, a median-time table, and the scaling figure."""
@@ -115,6 +139,8 @@ class BenchmarkSuiteStudy:
                     "group": b["group"],
                     "series": self._series(b),
                     "size": b["extra_info"].get(self.size_key),
+                    "in_scaling_figure": self.scaling_tests is None
+                    or b["test"] in self.scaling_tests,
                     "median": b["stats"]["median"],
                     "iqr": b["stats"].get("iqr"),
                     "rounds": b["stats"].get("rounds"),
@@ -151,7 +177,7 @@ class BenchmarkSuiteStudy:
         fig, ax = new_axes(f"Scaling: {self.suite}", self.size_label, "median time per call (s)")
         series = {}
         for m in medians:
-            if m["size"] is not None:
+            if m["size"] is not None and m["in_scaling_figure"]:
                 series.setdefault(m["series"], []).append((m["size"], m["median"]))
         for key, points in series.items():
             points.sort()
