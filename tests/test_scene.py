@@ -112,6 +112,32 @@ def test_mesh_shapes_load_from_every_format(tmp_path, extension):
     np.testing.assert_allclose(np.diag(world.bodies.inertia_body[0]), [6.5, 5.0, 2.5])
 
 
+def test_contact_settings_reach_the_world(tmp_path):
+    path = write_scene(
+        tmp_path,
+        """
+        [world]
+        contact_response = false
+        contact_solver = "exact"
+        contact_iterations = 12
+        friction_sides = 4
+        bounce_threshold = 0.5
+        slop = 0.001
+        penetration = "toi"
+        """,
+    )
+    world = rbd.load_scene(path).build()
+    assert world.contact_response is False
+    settings = world.contact_settings
+    assert (settings.solver, settings.iterations, settings.friction_sides) == ("exact", 12, 4)
+    assert (settings.bounce_threshold, settings.slop, settings.penetration) == (0.5, 0.001, "toi")
+    bad = write_scene(tmp_path, '[world]\ncontact_solver = "magic"\n', name="bad.toml")
+    with pytest.raises(SceneError, match=r"bad\.toml: \[world\]: .*magic"):
+        rbd.load_scene(bad)
+    with pytest.raises(SceneError, match=r"overrides: .*magic"):
+        rbd.load_scene(path).with_world(contact_solver="magic")
+
+
 def test_defaults_are_the_world_defaults(tmp_path):
     path = write_scene(tmp_path, '[[body]]\nshape = { type = "icosphere" }\n')
     scene = rbd.load_scene(path)

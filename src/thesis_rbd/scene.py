@@ -139,7 +139,8 @@ class Scene:
         Default run length (s).
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
-        quadratic_drag, angular_drag.
+        quadratic_drag, angular_drag, and the contact settings contact_response,
+        contact_solver, contact_iterations, friction_sides, bounce_threshold, slop, penetration.
     bodies : tuple of BodySpec
         In world index order.
     source : str
@@ -189,10 +190,12 @@ class Scene:
         Parameters
         ----------
         **settings
-            Any of dt, gravity, integrator, linear_drag, quadratic_drag, angular_drag.
+            Any ``[world]`` key (see :attr:`world`).
         """
         checked = _parse_world(settings, _Context("overrides"))
-        return replace(self, world=MappingProxyType({**self.world, **checked}))
+        merged = {**self.world, **checked}
+        _check_world(merged, _Context("overrides"))
+        return replace(self, world=MappingProxyType(merged))
 
 
 # ---------------------------------------------------------------------- loading
@@ -276,7 +279,31 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
 
 
 # ---------------------------------------------------------------------- tables
-_WORLD_KEYS = ("dt", "gravity", "integrator", "linear_drag", "quadratic_drag", "angular_drag")
+_WORLD_KEYS = (
+    "dt",
+    "gravity",
+    "integrator",
+    "linear_drag",
+    "quadratic_drag",
+    "angular_drag",
+    "contact_response",
+    "contact_solver",
+    "contact_iterations",
+    "friction_sides",
+    "bounce_threshold",
+    "slop",
+    "penetration",
+)
+# type checks of the contact settings; World checks their values (see _check_world)
+_CONTACT_CHECKS = {
+    "contact_response": lambda v, w: _as_bool(v, w),
+    "contact_solver": lambda v, w: _as_string(v, w),
+    "contact_iterations": lambda v, w: _integer(v, w),
+    "friction_sides": lambda v, w: _integer(v, w),
+    "bounce_threshold": lambda v, w: _non_negative_number(v, w),
+    "slop": lambda v, w: _non_negative_number(v, w),
+    "penetration": lambda v, w: _as_string(v, w),
+}
 
 
 def _parse_world(table: dict, where: _Context) -> dict:
@@ -296,7 +323,19 @@ def _parse_world(table: dict, where: _Context) -> dict:
     for key in ("linear_drag", "quadratic_drag", "angular_drag"):
         if key in table:
             world[key] = _non_negative_number(table[key], where.field(key))
+    for key, check in _CONTACT_CHECKS.items():
+        if key in table:
+            world[key] = check(table[key], where.field(key))
+    _check_world(world, where)
     return world
+
+
+def _check_world(world: dict, where: _Context) -> None:
+    """Let World judge the values it alone knows (solver names, iteration counts, ...)."""
+    try:
+        World(**world)
+    except ValueError as exc:
+        where.fail(str(exc))
 
 
 _BODY_KEYS = (
