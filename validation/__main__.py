@@ -1,4 +1,16 @@
-"""``python -m validation``: run the validation campaign and regenerate the report folder."""
+"""``python -m validation``: run the validation campaign and regenerate the report folder.
+
+Examples (from the repository root)::
+
+    python -m validation                      # full campaign into reports/
+    python -m validation --quick              # CI size, a few minutes on 2 cores
+    python -m validation --only integrators   # one study; the report keeps the others' data
+    python -m validation --jobs 2             # accuracy-only cases on 2 local processes
+    python -m validation --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
+    python -m validation --fresh --only long_runs          # forget stored results first
+
+``main(argv)`` is the entry point the ``thesis-rbd validate`` command calls.
+"""
 
 from __future__ import annotations
 

@@ -5,6 +5,11 @@ same executor as the rest, because parallel runs on a small shared machine corru
 other's timings. Accuracy-only cases run ``jobs`` at a time locally, or as many as the
 cluster's workers allow. Every record comes back to this process and is handed to
 ``on_record`` as soon as it is done, so the caller can store it before the next one finishes.
+
+Workers import the studies by name (``validation.studies``), so a Dask worker must run with
+this repository importable: start ``dask worker tcp://HOST:PORT`` from the repository root or
+with it on ``PYTHONPATH``, with the ``validation`` extra installed. Records travel back to the
+driver, which alone writes the result store: workers need no shared file system.
 """
 
 from __future__ import annotations
