@@ -2,8 +2,8 @@
 
 Two unit boxes of mass 10; the second is pushed by (2, 0, 0) N for one second and turned
 1 rad about (-1, -2, 0). The Java original loops ``sim.update()`` forever; here the loop runs
-for a given time and prints where the boxes are. (The boxes' contact response arrives with the
-contact-dynamics work; without it they pass through each other.)
+for a given time and prints where the boxes are: box2 reaches box1 at about 4.7 s and the
+contact response sets both moving together.
 
     python examples/thesis_example.py [SECONDS]
 """
