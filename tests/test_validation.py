@@ -151,3 +151,22 @@ def test_dask_local_cluster(tmp_path, monkeypatch):
     data = study_data(tmp_path, "long_runs")
     assert len(data["records"]) == data["case_count"] > 0
     assert (tmp_path / "report.md").is_file()
+
+
+@pytest.mark.parametrize(
+    ("value", "text"),
+    [
+        (1000.0, "1000"),
+        (0.12582, "0.126"),
+        (2.0, "2"),
+        (9.996, "10"),
+        (3.31e-7, "3.31e-07"),
+        (1e5, "1.00e+05"),
+        (0.0, "0"),
+        (None, "n/a"),
+        (True, "yes"),
+        (240, "240"),
+    ],
+)
+def test_numbers_are_written_with_three_significant_digits(value, text):
+    assert format_number(value) == text

@@ -36,5 +36,7 @@ def format_number(value, digits: int = 3) -> str:
         return "0"
     magnitude = abs(value)
     if 1e-3 <= magnitude < 1e5:
-        return f"{value:.{digits}g}"
+        decimals = max(digits - 1 - math.floor(math.log10(magnitude)), 0)
+        text = f"{value:.{decimals}f}"
+        return text.rstrip("0").rstrip(".") if "." in text else text
     return f"{value:.{digits - 1}e}"
