@@ -248,7 +248,7 @@ def test_fallback_mid_frame_and_up_front():
     added, removed = sap.update(centre - 0.5, centre + 0.5)
     # Half the boxes teleported: predicted far over budget, no insertion sort at all.
     assert sap.stats["full_resort"] and sap.stats["swaps"] == 0
-    assert sap.stats["predicted_swaps"] > 4 * sap.stats["budget"]
+    assert sap.stats["predicted_swaps"] > sap.stats["budget"]
     _check_frame(sap, oracle, before, added, removed, *oracle.update(centre - 0.5, centre + 0.5))
 
 
