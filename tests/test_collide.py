@@ -201,3 +201,14 @@ def test_fcl_adapter_quaternion_round_trip():
     np.testing.assert_allclose(tf.getTranslation(), T[:3, 3])
     back = Rotation.from_quat(quat_wxyz_to_xyzw(tf.getQuatRotation())).as_matrix()
     np.testing.assert_allclose(back, T[:3, :3], atol=1e-12)
+
+
+def test_fortran_ordered_and_readonly_poses_give_the_same_answer():
+    tree = rbd.OBBTree(rbd.shapes.icosphere(1.0, 2))
+    T_b = random_pose(5, 1.5)
+    want = rbd.collide(tree, np.eye(4), tree, T_b, mode="all").pairs
+    fortran = np.asfortranarray(T_b)
+    readonly = T_b.copy()
+    readonly.flags.writeable = False
+    for T in (fortran, readonly, T_b.tolist()):
+        np.testing.assert_array_equal(rbd.collide(tree, np.eye(4), tree, T, mode="all").pairs, want)
