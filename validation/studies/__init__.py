@@ -26,12 +26,12 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from validation.studies import free_flight_benchmarks, integrators, long_runs
+from validation.studies import dzhanibekov, free_flight_benchmarks, integrators, long_runs
 
 __all__ = ["STUDIES", "get_study"]
 
 STUDIES: dict[str, ModuleType] = {
-    module.NAME: module for module in (integrators, long_runs, free_flight_benchmarks)
+    module.NAME: module for module in (integrators, dzhanibekov, long_runs, free_flight_benchmarks)
 }
 
 
