@@ -76,13 +76,8 @@ def _node_size(h, k):
 
 
 @njit
-def _nodes_disjoint(x, y, ca, ra, ha, cb, rb, hb, M, tab):
-    """OBB test of node x of A against node y of B (B carried into A's frame by M, tab).
-
-    ``M`` is R_ab as a row-major 9-tuple. Arrays are indexed element by element (no row
-    views), which keeps the kernel free of reference counting.
-    """
-    # B's box axes in A's mesh frame: G = R_ab @ R_b[y].
+def _carry_box(y, cb, rb, M, tab):
+    """B's box y in A's mesh frame: axes ``G = R_ab R_b[y]`` (row-major 9-tuple), centre."""
     g = (
         M[0] * rb[y, 0, 0] + M[1] * rb[y, 1, 0] + M[2] * rb[y, 2, 0],
         M[0] * rb[y, 0, 1] + M[1] * rb[y, 1, 1] + M[2] * rb[y, 2, 1],
@@ -94,10 +89,25 @@ def _nodes_disjoint(x, y, ca, ra, ha, cb, rb, hb, M, tab):
         M[6] * rb[y, 0, 1] + M[7] * rb[y, 1, 1] + M[8] * rb[y, 2, 1],
         M[6] * rb[y, 0, 2] + M[7] * rb[y, 1, 2] + M[8] * rb[y, 2, 2],
     )
-    # Centre of B's box in A's mesh frame, minus A's box centre.
-    d0 = M[0] * cb[y, 0] + M[1] * cb[y, 1] + M[2] * cb[y, 2] + tab[0] - ca[x, 0]
-    d1 = M[3] * cb[y, 0] + M[4] * cb[y, 1] + M[5] * cb[y, 2] + tab[1] - ca[x, 1]
-    d2 = M[6] * cb[y, 0] + M[7] * cb[y, 1] + M[8] * cb[y, 2] + tab[2] - ca[x, 2]
+    c = (
+        M[0] * cb[y, 0] + M[1] * cb[y, 1] + M[2] * cb[y, 2] + tab[0],
+        M[3] * cb[y, 0] + M[4] * cb[y, 1] + M[5] * cb[y, 2] + tab[1],
+        M[6] * cb[y, 0] + M[7] * cb[y, 1] + M[8] * cb[y, 2] + tab[2],
+    )
+    return g, c
+
+
+@njit
+def _boxes_disjoint(x, ca, ra, ha, g, c, b):
+    """OBB test of A's box x against a box already carried into A's mesh frame.
+
+    ``g`` (row-major 9-tuple) and ``c`` are that box's axes and centre in A's mesh frame (see
+    :func:`_carry_box`), ``b`` its half-extents. Arrays are indexed element by element (no
+    row views), which keeps the kernel free of reference counting.
+    """
+    d0 = c[0] - ca[x, 0]
+    d1 = c[1] - ca[x, 1]
+    d2 = c[2] - ca[x, 2]
     a00 = ra[x, 0, 0]
     a01 = ra[x, 0, 1]
     a02 = ra[x, 0, 2]
@@ -124,7 +134,6 @@ def _nodes_disjoint(x, y, ca, ra, ha, cb, rb, hb, M, tab):
         a02 * d0 + a12 * d1 + a22 * d2,
     )
     a = (float(ha[x, 0]), float(ha[x, 1]), float(ha[x, 2]))
-    b = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
     return obb_disjoint(R, T, a, b)
 
 
@@ -294,6 +303,10 @@ def traverse(
     bv_tests = 0
     box_tests = 0
     tri_tests = 0
+    carried = -1
+    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    c = (0.0, 0.0, 0.0)
+    hy = (0.0, 0.0, 0.0)
     while top > 0:
         top -= 1
         x = stack[top, 0]
@@ -302,7 +315,13 @@ def traverse(
         tb = -1
         if x >= 0 and y >= 0:
             bv_tests += 1
-            if _nodes_disjoint(x, y, ca, ra, ha, cb, rb, hb, Mab, tab_t):
+            # B's box carried into A's frame is reused while y stays the same (A's children
+            # are tested against it one after the other).
+            if y != carried:
+                g, c = _carry_box(y, cb, rb, Mab, tab_t)
+                hy = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
+                carried = y
+            if _boxes_disjoint(x, ca, ra, ha, g, c, hy):
                 continue
             a_leaf = (not leafless_a) and cha[x, 0] < 0
             b_leaf = (not leafless_b) and chb[y, 0] < 0
