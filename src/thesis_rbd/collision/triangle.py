@@ -1,21 +1,22 @@
 """Exact primitive tests: triangle-triangle and triangle-box overlap.
 
-Both tests are separating-axis tests with *closed* intervals: two sets that merely touch are
-reported as overlapping (python-fcl does the same), and a separation is only reported when an
-axis shows a strictly positive gap. Any axis, of any length, is a valid candidate, so a
-near-zero axis (nearly parallel edges, a degenerate triangle) can only fail to separate, never
-separate falsely; the tests therefore need no epsilon and cope with degenerate triangles.
+Both tests treat triangles and boxes as *closed* sets: two that merely touch are
+reported as overlapping (python-fcl does the same), and a separation is only reported when a
+sign or an axis shows a strictly positive gap. In the separating-axis parts any axis, of any
+length, is a valid candidate, so a near-zero axis (nearly parallel edges) can only fail to
+separate, never separate falsely; no epsilon is needed.
 
-Triangle-triangle (:func:`tri_tri_overlap`) follows Möller (1997) for the fast part: first the
-two plane-side rejections (all corners of one triangle strictly on one side of the other's
-plane), which settle most pairs a bounding-volume traversal hands over. The pairs that straddle
-both planes are then decided on the remaining separating axes instead of Möller's interval
-arithmetic, which divides by distances and needs a special coplanar branch: the 9 edge-edge
-cross products, then the 12 in-plane edge normals that decide coplanar pairs and a segment
-against a proper triangle. When a triangle is exactly degenerate (a segment or a point: zero
-normal), the edges themselves and the corner-to-corner directions (and their components
-perpendicular to each edge) are added, which decides point/point, point/segment and
-segment/segment pairs. With exact arithmetic the axis set is then complete for any pair.
+Triangle-triangle (:func:`tri_tri_overlap`) is Guigue & Devillers (2003), a reformulation of
+Möller (1997) that decides everything with signs of 3x3 determinants (no divisions, no
+interval end points): the two plane-side rejections first, which settle most pairs a
+bounding-volume traversal hands over; then, for triangles straddling each other's plane, a
+canonical relabelling and two more orientation signs that tell whether the two segments on
+the planes' common line overlap. Touching cases (a zero sign) fall through the same case
+analysis. Coplanar pairs and exactly degenerate triangles (a segment or a point, zero
+normal) go to a separating-axis test instead: both normals, the 9 edge-edge cross products,
+the 12 in-plane edge normals, and for degenerate triangles the edges themselves and the
+corner-to-corner directions (and their components perpendicular to each edge), which decides
+point/point, point/segment and segment/segment pairs as well.
 
 Triangle-box (:func:`tri_box_overlap`) is Akenine-Möller's (2001) 13-axis test: the box's face
 normals, the triangle normal, and the 9 cross products of box axes with triangle edges.
@@ -61,6 +62,95 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     bool
         True if the triangles share at least one point (touching counts).
     """
+    # Orientation of each corner against the other triangle's plane (Guigue-Devillers
+    # convention: the plane's normal is taken at its third corner).
+    n2 = cross(sub(q0, q2), sub(q1, q2))
+    s0 = dot(sub(p0, q2), n2)
+    s1 = dot(sub(p1, q2), n2)
+    s2 = dot(sub(p2, q2), n2)
+    if (s0 > 0.0 and s1 > 0.0 and s2 > 0.0) or (s0 < 0.0 and s1 < 0.0 and s2 < 0.0):
+        return False
+    n1 = cross(sub(p0, p2), sub(p1, p2))
+    t0 = dot(sub(q0, p2), n1)
+    t1 = dot(sub(q1, p2), n1)
+    t2 = dot(sub(q2, p2), n1)
+    if (t0 > 0.0 and t1 > 0.0 and t2 > 0.0) or (t0 < 0.0 and t1 < 0.0 and t2 < 0.0):
+        return False
+    if (s0 == 0.0 and s1 == 0.0 and s2 == 0.0) or (t0 == 0.0 and t1 == 0.0 and t2 == 0.0):
+        # Coplanar, or a degenerate triangle (zero normal): separating axes decide.
+        return _sat_overlap(p0, p1, p2, q0, q1, q2)
+    # Guigue-Devillers: rotate P so that its first corner is alone on its side of Q's plane
+    # (flipping Q's orientation if that side is the negative one), then the same for Q.
+    if s0 > 0.0:
+        if s1 > 0.0:
+            return _gd_second(p2, p0, p1, q0, q2, q1, t0, t2, t1)
+        if s2 > 0.0:
+            return _gd_second(p1, p2, p0, q0, q2, q1, t0, t2, t1)
+        return _gd_second(p0, p1, p2, q0, q1, q2, t0, t1, t2)
+    if s0 < 0.0:
+        if s1 < 0.0:
+            return _gd_second(p2, p0, p1, q0, q1, q2, t0, t1, t2)
+        if s2 < 0.0:
+            return _gd_second(p1, p2, p0, q0, q1, q2, t0, t1, t2)
+        return _gd_second(p0, p1, p2, q0, q2, q1, t0, t2, t1)
+    if s1 < 0.0:
+        if s2 >= 0.0:
+            return _gd_second(p1, p2, p0, q0, q2, q1, t0, t2, t1)
+        return _gd_second(p0, p1, p2, q0, q1, q2, t0, t1, t2)
+    if s1 > 0.0:
+        if s2 > 0.0:
+            return _gd_second(p0, p1, p2, q0, q2, q1, t0, t2, t1)
+        return _gd_second(p1, p2, p0, q0, q1, q2, t0, t1, t2)
+    if s2 > 0.0:
+        return _gd_second(p2, p0, p1, q0, q1, q2, t0, t1, t2)
+    return _gd_second(p2, p0, p1, q0, q2, q1, t0, t2, t1)
+
+
+@njit
+def _gd_second(p0, p1, p2, q0, q1, q2, t0, t1, t2):
+    """Second half of Guigue-Devillers: the same normalisation for Q against P's plane."""
+    if t0 > 0.0:
+        if t1 > 0.0:
+            return _gd_intervals(p0, p2, p1, q2, q0, q1)
+        if t2 > 0.0:
+            return _gd_intervals(p0, p2, p1, q1, q2, q0)
+        return _gd_intervals(p0, p1, p2, q0, q1, q2)
+    if t0 < 0.0:
+        if t1 < 0.0:
+            return _gd_intervals(p0, p1, p2, q2, q0, q1)
+        if t2 < 0.0:
+            return _gd_intervals(p0, p1, p2, q1, q2, q0)
+        return _gd_intervals(p0, p2, p1, q0, q1, q2)
+    if t1 < 0.0:
+        if t2 >= 0.0:
+            return _gd_intervals(p0, p2, p1, q1, q2, q0)
+        return _gd_intervals(p0, p1, p2, q0, q1, q2)
+    if t1 > 0.0:
+        if t2 > 0.0:
+            return _gd_intervals(p0, p2, p1, q0, q1, q2)
+        return _gd_intervals(p0, p1, p2, q1, q2, q0)
+    if t2 > 0.0:
+        return _gd_intervals(p0, p1, p2, q2, q0, q1)
+    return _gd_intervals(p0, p2, p1, q2, q0, q1)
+
+
+@njit
+def _gd_intervals(p0, p1, p2, q0, q1, q2):
+    """Overlap of the two triangles' segments on the planes' common line, by two signs.
+
+    With p0 alone on the positive side of Q's plane and q0 alone on the positive side of
+    P's plane, the segments overlap iff both orientation determinants below are <= 0.
+    """
+    if dot(sub(q1, p1), cross(sub(q0, p1), sub(p0, p1))) > 0.0:
+        return False
+    if dot(sub(q2, p0), cross(sub(q0, p0), sub(p2, p0))) > 0.0:
+        return False
+    return True
+
+
+@njit
+def _sat_overlap(p0, p1, p2, q0, q1, q2):
+    """Separating-axis decision for coplanar pairs and exactly degenerate triangles."""
     e0 = sub(p1, p0)
     e1 = sub(p2, p1)
     e2 = sub(p0, p2)
@@ -69,20 +159,8 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     f2 = sub(q0, q2)
     n1 = cross(e0, e1)
     n2 = cross(f0, f1)
-
-    # Möller's plane rejections, measured from a corner of the plane's own triangle so that
-    # the triangle itself projects to exactly 0.
-    d0 = dot(n1, sub(q0, p0))
-    d1 = dot(n1, sub(q1, p0))
-    d2 = dot(n1, sub(q2, p0))
-    if (d0 > 0.0 and d1 > 0.0 and d2 > 0.0) or (d0 < 0.0 and d1 < 0.0 and d2 < 0.0):
+    if _separated(n1, p0, p1, p2, q0, q1, q2) or _separated(n2, p0, p1, p2, q0, q1, q2):
         return False
-    d0 = dot(n2, sub(p0, q0))
-    d1 = dot(n2, sub(p1, q0))
-    d2 = dot(n2, sub(p2, q0))
-    if (d0 > 0.0 and d1 > 0.0 and d2 > 0.0) or (d0 < 0.0 and d1 < 0.0 and d2 < 0.0):
-        return False
-
     # Edge-edge axes: complete, together with the normals, for non-coplanar triangles.
     if _separated(cross(e0, f0), p0, p1, p2, q0, q1, q2):
         return False
@@ -102,7 +180,6 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
         return False
     if _separated(cross(e2, f2), p0, p1, p2, q0, q1, q2):
         return False
-
     # In-plane edge normals: decide coplanar pairs. Each triangle's edges are crossed with
     # both normals, so that a degenerate triangle (zero normal) still gets the in-plane
     # normals of its edges from the other triangle's plane.
