@@ -327,15 +327,15 @@ class OBBTree:
 
     Notes
     -----
-    The defaults are the measured best on the thesis demo (two 5000-triangle tori, see
-    ``validation/bench_obbtree.py``): the leafless tree needs half the memory of the classic
-    one (128 vs 256 bytes per triangle in float64) and 15 % fewer box and triangle tests for
-    all pairs, builds faster (about 11 vs 16 ms), and answers "first" as fast. The hull fit
-    gives about the same number of tests on that scene (1 % fewer for all pairs, 7 % more
-    on the near misses of "first") and builds about 8x slower (an incremental hull per
-    node), so the triangle fit is the default. float32 storage halves the memory again with
-    the same answers (every pose agreed with python-fcl) and about the same speed, since the
-    arithmetic stays float64.
+    The defaults were chosen by measurement on the thesis demo (two 5000-triangle tori,
+    ``python -m validation.bench_obbtree``): the leafless tree needs half the memory of the
+    classic one (128 vs 256 bytes per triangle in float64), builds faster (about 10 vs 16 ms)
+    and answers "first" as fast; the classic tree is about 5 % faster for all pairs (it makes
+    16 % more tests, but its leaf box tests are cheaper than the leafless tree's triangle-box
+    tests). The hull fit gives about the same number of tests on that scene and builds 4-7x
+    slower (an incremental hull per node), so the triangle fit is the default. float32
+    storage halves the memory again with the same answers (every pose agreed with
+    python-fcl) and about the same speed, since the arithmetic stays float64.
 
     Attributes
     ----------
