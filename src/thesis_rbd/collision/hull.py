@@ -125,7 +125,15 @@ def hull_faces(P):
         count += 1
 
     n_alive = 4
+    # Far points first: they are the likely hull vertices, so the hull grows to nearly its
+    # final shape early and the many interior points are rejected against few faces.
+    cx = 0.25 * (P[i0, 0] + P[i1, 0] + P[i2, 0] + P[i3, 0])
+    cy = 0.25 * (P[i0, 1] + P[i1, 1] + P[i2, 1] + P[i3, 1])
+    cz = 0.25 * (P[i0, 2] + P[i1, 2] + P[i2, 2] + P[i3, 2])
+    far = np.empty(n)
     for k in range(n):
+        far[k] = -((P[k, 0] - cx) ** 2 + (P[k, 1] - cy) ** 2 + (P[k, 2] - cz) ** 2)
+    for k in np.argsort(far):
         if k == i0 or k == i1 or k == i2 or k == i3:
             continue
         # Room for the worst case (every live face visible, 3 horizon edges each) before any
