@@ -13,7 +13,10 @@ Every triangle pair is reached at most once, because the children of a node part
 triangles; so "all" reports each intersecting pair exactly once without deduplication.
 
 All geometry is evaluated in the mesh frame of A: B's boxes and triangles are carried over by
-the relative transform ``(R_ab, t_ab) = T_a^-1 T_b``.
+the relative transform ``(R_ab, t_ab) = T_a^-1 T_b`` (a carried box is reused while the same B
+node is tested against A's children). In "first" mode the nearer child (by box centre) is
+visited first, which finds an intersecting pair after about a quarter of the tests on the
+tori demo; "all" visits everything anyway and skips that bookkeeping.
 """
 
 from __future__ import annotations
