@@ -20,6 +20,7 @@ __all__ = [
     "brute_force_pairs",
     "cluster_reference",
     "covariance_axes_reference",
+    "examples",
     "least_penetration_reference",
     "point_triangle_distance",
     "random_mesh",
@@ -343,3 +344,14 @@ def least_penetration_reference(P, Q) -> tuple[np.ndarray, float]:
     depths = [max(Q @ u) - min(P @ u) for u in candidates]
     k = int(np.argmin(depths))
     return candidates[k], max(depths[k], 0.0)
+
+
+def examples(n: int) -> int:
+    """Hypothesis example count ``n`` scaled by the loaded profile (default profile: 60).
+
+    Tests ask for counts that keep the default run short; ``HYPOTHESIS_PROFILE=thorough``
+    (see conftest.py) scales every one of them up in proportion.
+    """
+    from hypothesis import settings
+
+    return max(1, n * settings.default.max_examples // 60)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reference import MESH_KINDS, brute_force_pairs, random_mesh, random_pose
+from reference import MESH_KINDS, brute_force_pairs, examples, random_mesh, random_pose
 
 import thesis_rbd as rbd
 from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
@@ -31,7 +31,7 @@ def _scene(kind_a, kind_b, seed):
     return mesh_a, random_pose(seed + 2, reach), mesh_b, random_pose(seed + 3, reach)
 
 
-@settings(max_examples=60)
+@settings(max_examples=examples(60))
 @given(
     kind_a=st.sampled_from(MESH_KINDS),
     kind_b=st.sampled_from(MESH_KINDS),

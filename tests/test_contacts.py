@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from reference import (
     MESH_KINDS,
     cluster_reference,
+    examples,
     least_penetration_reference,
     point_triangle_distance,
     random_mesh,
@@ -49,7 +50,7 @@ def _check_contacts(res, mesh_a, T_a, mesh_b, T_b, tol):
         assert gaps.min() > tol
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(
     kind_a=st.sampled_from(MESH_KINDS),
     kind_b=st.sampled_from(MESH_KINDS),
@@ -131,7 +132,7 @@ def test_edge_edge_contact_normal():
     assert np.all(res.contacts.depths < 0.011)
 
 
-@settings(max_examples=100)
+@settings(max_examples=examples(100))
 @given(seed=st.integers(0, 2**31))
 def test_least_penetration_matches_reference(seed):
     rng = np.random.default_rng(seed)
@@ -148,7 +149,7 @@ def test_least_penetration_matches_reference(seed):
     assert np.allclose(u, u_ref, atol=1e-9) or abs(max(Q @ u_ref) - min(P @ u_ref) - d) < 1e-12
 
 
-@settings(max_examples=60)
+@settings(max_examples=examples(60))
 @given(seed=st.integers(0, 2**31), tol=st.sampled_from([0.0, 0.05, 0.2]))
 def test_merge_matches_cluster_reference(seed, tol):
     rng = np.random.default_rng(seed)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reference import boxes_overlap_lp, covariance_axes_reference
+from reference import boxes_overlap_lp, covariance_axes_reference, examples
 from scipy.spatial.transform import Rotation
 
 from thesis_rbd.collision.obb import obb_disjoint, symmetric_eigenvectors, triangle_moments
@@ -18,7 +18,7 @@ def _disjoint(c1, R1, h1, c2, R2, h2):
     return obb_disjoint(tuple(R.ravel()), tuple(T), tuple(h1), tuple(h2))
 
 
-@settings(max_examples=150)
+@settings(max_examples=examples(150))
 @given(seed=st.integers(0, 2**31), spread=st.floats(0.1, 3.0))
 def test_obb_disjoint_matches_lp(seed, spread):
     rng = np.random.default_rng(seed)
@@ -58,7 +58,7 @@ def test_obb_face_and_edge_separation():
     )
 
 
-@settings(max_examples=100)
+@settings(max_examples=examples(100))
 @given(seed=st.integers(0, 2**31))
 def test_jacobi_eigenvectors_match_eigh(seed):
     rng = np.random.default_rng(seed)
@@ -110,7 +110,7 @@ def test_covariance_of_a_box_surface_has_its_axes():
     np.testing.assert_allclose(np.abs(V.T @ R), np.eye(3), atol=1e-9)
 
 
-@settings(max_examples=60)
+@settings(max_examples=examples(60))
 @given(seed=st.integers(0, 2**31), n=st.integers(4, 200))
 def test_hull_matches_qhull(seed, n):
     from scipy.spatial import ConvexHull

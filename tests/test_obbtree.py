@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reference import MESH_KINDS, random_mesh
+from reference import MESH_KINDS, examples, random_mesh
 
 import thesis_rbd as rbd
 from thesis_rbd.collision.obbtree import OBBTree
@@ -19,7 +19,7 @@ OPTIONS = [
 ]
 
 
-@settings(max_examples=40)
+@settings(max_examples=examples(40))
 @given(kind=st.sampled_from(MESH_KINDS), seed=st.integers(0, 2**31), opts=st.sampled_from(OPTIONS))
 def test_random_trees_are_valid(kind, seed, opts):
     mesh = random_mesh(kind, seed)

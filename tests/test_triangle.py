@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reference import tri_box_lp, tri_tri_lp, tri_tri_sat
+from reference import examples, tri_box_lp, tri_tri_lp, tri_tri_sat
 
 from thesis_rbd.collision.triangle import triangle_box_overlap, triangles_overlap
 
@@ -22,7 +22,7 @@ degenerate_triangle = st.one_of(
 )
 
 
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(P=triangle, Q=triangle)
 def test_tri_tri_matches_sat_reference(P, Q):
     overlap, margin = tri_tri_sat(P, Q, exact=True)
@@ -31,7 +31,7 @@ def test_tri_tri_matches_sat_reference(P, Q):
     assert triangles_overlap(P, Q) == overlap
 
 
-@settings(max_examples=60)
+@settings(max_examples=examples(60))
 @given(P=triangle, Q=triangle)
 def test_tri_tri_matches_lp_away_from_touching(P, Q):
     _, margin = tri_tri_sat(P, Q)
@@ -40,7 +40,7 @@ def test_tri_tri_matches_lp_away_from_touching(P, Q):
     assert triangles_overlap(P, Q) == tri_tri_lp(P, Q)
 
 
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(P=int_triangle, Q=int_triangle)
 def test_tri_tri_exact_on_integer_grids(P, Q):
     # Small integers make every product exact, so touching, coplanar and degenerate cases are
@@ -48,7 +48,7 @@ def test_tri_tri_exact_on_integer_grids(P, Q):
     assert triangles_overlap(P, Q) == tri_tri_sat(P, Q, exact=True)[0]
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(P=degenerate_triangle, Q=st.one_of(degenerate_triangle, int_triangle))
 def test_tri_tri_degenerate_against_lp(P, Q):
     # Exactly representable data, away from LP tolerance issues: grow/shrink is not possible
@@ -176,7 +176,7 @@ def test_tri_tri_is_invariant_under_corner_order():
 half = st.lists(st.floats(0.0, 1.5), min_size=3, max_size=3).map(np.array)
 
 
-@settings(max_examples=60)
+@settings(max_examples=examples(60))
 @given(V=triangle, h=half)
 def test_tri_box_matches_lp(V, h):
     # Closed-set answers agree up to touching: an overlap must survive growing the box by a
@@ -190,7 +190,7 @@ def test_tri_box_matches_lp(V, h):
         assert triangle_box_overlap(V, h + delta)
 
 
-@settings(max_examples=100)
+@settings(max_examples=examples(100))
 @given(V=int_triangle, h=st.lists(st.integers(1, 2), min_size=3, max_size=3).map(np.array))
 def test_tri_box_equals_box_as_triangles(V, h):
     # Independent exact check: a triangle meets a box iff it meets one of the box's 12 face
