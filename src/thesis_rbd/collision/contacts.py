@@ -20,6 +20,10 @@ For every intersecting triangle pair (a of mesh A, b of mesh B):
   ``+j n`` acts on A). For closed, outward-oriented meshes this is the vertex-face or
   edge-edge contact of the thesis; for open or inconsistently wound meshes the face normals
   still define the side.
+* The depth is *local to the triangle pair*: how deeply these two triangles interpenetrate,
+  not how deep one mesh is inside the other. For the shallow penetrations of a simulation
+  (less than a triangle's size) the two agree; for deep overlaps (the tori demo) it is at
+  most about a triangle's size, as with fcl's mesh-mesh contacts.
 
 Merging
 -------
