@@ -6,12 +6,28 @@ plus offsets, the layout of pynndescent's flat trees) and :func:`contacts_for_pa
 candidate pairs inside numba, calling the same traversal and contact kernels as ``collide``.
 Bodies sharing a mesh share its tree.
 
-For dynamics the contacts of a pair are reduced differently from ``collide``'s merge: points
-within the merge tolerance form a cluster (transitively) that becomes one contact at the
-cluster's centroid, with the normal of its deepest member and the largest depth. A vertex
-pressed into a face gives a small intersection polygon around the vertex; its centroid is the
-vertex, which puts the impulse where the touch is and not at one corner of the polygon (which
-would spin a ball landing on its pole).
+Dynamics needs more from a contact than ``collide``'s per-triangle-pair answer, and gets it
+here in two steps:
+
+* one normal per contact region. The intersecting triangle pairs of a body pair fall into
+  regions (pairs linked by a shared triangle); each region gets the axis of least penetration
+  over its triangles as a whole: candidates are the outward normals of B's region faces, the
+  reversed normals of A's, and (for small regions) their edge-edge cross products; the depth
+  along u is max over B's region vertices of u.x minus min over A's. Judged per triangle
+  pair, two exactly stacked boxes have coplanar side faces whose own least-penetration axis
+  is sideways with depth 0; judged over the region, the vertical axis wins with the true
+  depth, as in the thesis's vertex-face / edge-edge classification of a whole contact.
+* one contact per cluster of intersection points closer than the merge tolerance, at the
+  cluster's centroid. A vertex pressed into a face gives a small intersection polygon around
+  the vertex; its centroid is the vertex, which puts the impulse where the touch is and not
+  at a corner of the polygon (which would spin a ball landing on its pole);
+* the vertex-face contacts of the thesis added to the crossing points: corners of either
+  side's region faces that lie inside the other side's faces within the region's depth
+  (for two boxes face on face, the corners of the overlap square, which crossing points
+  miss when the boxes' edges nearly coincide);
+* at most four contacts per region, the corners spanning the largest area: a box resting on
+  a box keeps the four corners of the overlap instead of a cloud of crossing points that
+  changes from step to step and makes a stack jitter.
 """
 
 from __future__ import annotations
@@ -115,6 +131,19 @@ def _cluster_root(parent, i):
 
 
 @njit
+def _region_of_faces(tri_pairs, region, faces):
+    """Region of each contact, looked up by its [face of A, face of B] pair."""
+    width = tri_pairs[:, 1].max() + 1
+    keys = tri_pairs[:, 0] * width + tri_pairs[:, 1]
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    out = np.empty(faces.shape[0], np.int64)
+    for c in range(faces.shape[0]):
+        out[c] = region[order[np.searchsorted(sorted_keys, faces[c, 0] * width + faces[c, 1])]]
+    return out
+
+
+@njit
 def reduce_contacts(points, normals, depths, faces, tolerance):
     """One contact per cluster of points closer than ``tolerance`` (transitively).
 
@@ -171,6 +200,285 @@ def reduce_contacts(points, normals, depths, faces, tolerance):
             out_faces[k] = faces[i]
     for k in range(clusters):
         out_points[k] /= members[k]
+    return out_points, out_normals, out_depths, out_faces
+
+
+# Edge-edge candidate axes grow as (faces of A) x (faces of B) x 9; past this many face
+# pairs a region is judged by its face normals alone.
+_EDGE_AXES_FACE_PAIRS = 64
+
+
+@njit
+def _corner(V, F, f, k, R, t):
+    """Corner k of face f, mapped by (R, t)."""
+    v = V[F[f, k]]
+    return (
+        R[0, 0] * v[0] + R[0, 1] * v[1] + R[0, 2] * v[2] + t[0],
+        R[1, 0] * v[0] + R[1, 1] * v[1] + R[1, 2] * v[2] + t[1],
+        R[2, 0] * v[0] + R[2, 1] * v[1] + R[2, 2] * v[2] + t[2],
+    )
+
+
+@njit
+def _region_depth(u, corners_a, corners_b):
+    """How far A's region must move along u to clear B's: max_B u.x - min_A u.x."""
+    hi = -np.inf
+    for k in range(corners_b.shape[0]):
+        hi = max(hi, u[0] * corners_b[k, 0] + u[1] * corners_b[k, 1] + u[2] * corners_b[k, 2])
+    lo = np.inf
+    for k in range(corners_a.shape[0]):
+        lo = min(lo, u[0] * corners_a[k, 0] + u[1] * corners_a[k, 1] + u[2] * corners_a[k, 2])
+    return hi - lo
+
+
+@njit
+def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
+    """Region of each intersecting triangle pair, and each region's normal and depth.
+
+    Parameters
+    ----------
+    tri_pairs : (k, 2) int64
+        Intersecting [face of A, face of B] pairs.
+    Va, Fa, Vb, Fb
+        The meshes in their own frames.
+    Rab, tab
+        B's mesh frame in A's.
+
+    Returns
+    -------
+    region : (k,) int64
+        Region index of each pair (pairs sharing a face are in one region).
+    normals : (r, 3) float64
+        Unit axis of least penetration per region, A's frame, pointing from B towards A.
+    depths : (r,) float64
+        Penetration along it, >= 0.
+    """
+    k = tri_pairs.shape[0]
+    parent = np.arange(k)
+    for column in range(2):
+        order = np.argsort(tri_pairs[:, column], kind="mergesort")
+        for r in range(1, k):
+            if tri_pairs[order[r], column] == tri_pairs[order[r - 1], column]:
+                x, y = _cluster_root(parent, order[r]), _cluster_root(parent, order[r - 1])
+                if x != y:
+                    parent[max(x, y)] = min(x, y)
+    region = np.full(k, -1)
+    count = 0
+    for r in range(k):
+        root = _cluster_root(parent, r)
+        if region[root] < 0:
+            region[root] = count
+            count += 1
+        region[r] = region[root]
+    identity = np.eye(3)
+    zero = np.zeros(3)
+    normals = np.zeros((count, 3))
+    depths = np.zeros(count)
+    for g in range(count):
+        faces_a = np.unique(tri_pairs[region == g, 0])
+        faces_b = np.unique(tri_pairs[region == g, 1])
+        corners_a = np.empty((3 * faces_a.shape[0], 3))
+        corners_b = np.empty((3 * faces_b.shape[0], 3))
+        for i in range(faces_a.shape[0]):
+            for c in range(3):
+                corners_a[3 * i + c] = _corner(Va, Fa, faces_a[i], c, identity, zero)
+        for i in range(faces_b.shape[0]):
+            for c in range(3):
+                corners_b[3 * i + c] = _corner(Vb, Fb, faces_b[i], c, Rab, tab)
+        best, best_u = np.inf, (0.0, 0.0, 1.0)
+        for side in range(2):
+            corners = corners_b if side == 0 else corners_a
+            sign = 1.0 if side == 0 else -1.0
+            for i in range(corners.shape[0] // 3):
+                e1 = corners[3 * i + 1] - corners[3 * i]
+                e2 = corners[3 * i + 2] - corners[3 * i]
+                n = np.cross(e1, e2)
+                length = np.sqrt(n @ n)
+                if length <= 1e-300:
+                    continue
+                u = (sign * n[0] / length, sign * n[1] / length, sign * n[2] / length)
+                d = _region_depth(u, corners_a, corners_b)
+                if d < best:
+                    best, best_u = d, u
+        if faces_a.shape[0] * faces_b.shape[0] <= _EDGE_AXES_FACE_PAIRS:
+            # the side from B towards A orients each edge-edge axis
+            towards_a = np.zeros(3)
+            for c in range(corners_a.shape[0]):
+                towards_a += corners_a[c] / corners_a.shape[0]
+            for c in range(corners_b.shape[0]):
+                towards_a -= corners_b[c] / corners_b.shape[0]
+            for i in range(faces_a.shape[0]):
+                for ea in range(3):
+                    pa = corners_a[3 * i + (ea + 1) % 3] - corners_a[3 * i + ea]
+                    for j in range(faces_b.shape[0]):
+                        for eb in range(3):
+                            pb = corners_b[3 * j + (eb + 1) % 3] - corners_b[3 * j + eb]
+                            n = np.cross(pa, pb)
+                            length = np.sqrt(n @ n)
+                            if length <= 1e-9 * np.sqrt((pa @ pa) * (pb @ pb)):
+                                continue  # parallel edges: no axis
+                            if n @ towards_a < 0.0:
+                                n = -n
+                            u = (n[0] / length, n[1] / length, n[2] / length)
+                            d = _region_depth(u, corners_a, corners_b)
+                            if d < best:
+                                best, best_u = d, u
+        normals[g, 0], normals[g, 1], normals[g, 2] = best_u
+        depths[g] = max(best, 0.0)
+    return region, normals, depths
+
+
+@njit
+def _manifold_corners(points, normal):
+    """Indices of at most four points spanning the largest area across ``normal``.
+
+    The first is the point farthest from the centroid, the second the farthest from it, the
+    third and fourth the points making the largest triangle with those two on either side:
+    for the intersection points around a face-on-face contact these are the corners of the
+    overlap, which stay put from step to step (the reduction of Bullet's and Box2D's
+    manifolds).
+    """
+    m = points.shape[0]
+    if m <= 4:
+        return np.arange(m)
+    centroid = np.zeros(3)
+    for i in range(m):
+        centroid += points[i] / m
+    first = 0
+    best = -1.0
+    for i in range(m):
+        d = points[i] - centroid
+        if d @ d > best:
+            best, first = d @ d, i
+    second = first
+    best = -1.0
+    for i in range(m):
+        d = points[i] - points[first]
+        if d @ d > best:
+            best, second = d @ d, i
+    edge = points[second] - points[first]
+    third, fourth = -1, -1
+    most, least = 0.0, 0.0
+    for i in range(m):
+        area = np.cross(edge, points[i] - points[first]) @ normal
+        if area > most:
+            most, third = area, i
+        if area < least:
+            least, fourth = area, i
+    chosen = [first, second]
+    if third >= 0:
+        chosen.append(third)
+    if fourth >= 0:
+        chosen.append(fourth)
+    return np.array(chosen)
+
+
+@njit
+def _project_along(p, u, t0, t1, t2, margin):
+    """Signed distance s with p + s u on triangle (t0, t1, t2), or NaN if it misses it by
+    more than about ``margin`` (a length)."""
+    e1, e2 = t1 - t0, t2 - t0
+    n = np.cross(e1, e2)
+    along = n @ u
+    if abs(along) <= 1e-12 * np.sqrt(n @ n):
+        return np.nan
+    s = (n @ (t0 - p)) / along
+    x = p + s * u - t0
+    # barycentric coordinates of x in (e1, e2)
+    d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
+    d1, d2 = x @ e1, x @ e2
+    det = d11 * d22 - d12 * d12
+    if det <= 0.0:
+        return np.nan
+    b1 = (d22 * d1 - d12 * d2) / det
+    b2 = (d11 * d2 - d12 * d1) / det
+    slack = margin / np.sqrt(min(d11, d22))
+    if b1 < -slack or b2 < -slack or b1 + b2 > 1.0 + slack:
+        return np.nan
+    return s
+
+
+@njit
+def _vertex_face_points(faces_a, faces_b, Va, Fa, Vb, Fb, Rab, tab, u, depth, band):
+    """Vertex-face contacts of a region (thesis 5.2): corners of one side's region faces
+    that lie inside the other side's region faces, at most ``depth + band`` deep along u.
+    A corner within ``band`` of a face's edge counts as inside: where two boxes' edges
+    nearly coincide, the corner of their overlap is such a corner.
+
+    Returns points (q, 3) in A's frame, midway between the corner and the face it is
+    pressed into, and their [face of A, face of B] pairs.
+    """
+    identity = np.eye(3)
+    zero = np.zeros(3)
+    points = np.empty((0, 3))
+    pairs = np.empty((0, 2), np.int64)
+    for side in range(2):
+        own = faces_a if side == 0 else faces_b
+        other = faces_b if side == 0 else faces_a
+        direction = u if side == 0 else -u
+        for i in range(own.shape[0]):
+            for c in range(3):
+                if side == 0:
+                    p = np.array(_corner(Va, Fa, own[i], c, identity, zero))
+                else:
+                    p = np.array(_corner(Vb, Fb, own[i], c, Rab, tab))
+                for j in range(other.shape[0]):
+                    if side == 0:
+                        t0 = np.array(_corner(Vb, Fb, other[j], 0, Rab, tab))
+                        t1 = np.array(_corner(Vb, Fb, other[j], 1, Rab, tab))
+                        t2 = np.array(_corner(Vb, Fb, other[j], 2, Rab, tab))
+                    else:
+                        t0 = np.array(_corner(Va, Fa, other[j], 0, identity, zero))
+                        t1 = np.array(_corner(Va, Fa, other[j], 1, identity, zero))
+                        t2 = np.array(_corner(Va, Fa, other[j], 2, identity, zero))
+                    s = _project_along(p, direction, t0, t1, t2, band)
+                    if s == s and -band <= s <= depth + band:
+                        point = (p + 0.5 * s * direction).reshape(1, 3)
+                        points = np.concatenate((points, point))
+                        pair = np.empty((1, 2), np.int64)
+                        pair[0, 0] = own[i] if side == 0 else other[j]
+                        pair[0, 1] = other[j] if side == 0 else own[i]
+                        pairs = np.concatenate((pairs, pair))
+                        break
+    return points, pairs
+
+
+@njit
+def _region_manifolds(
+    points, faces, point_region, tri_pairs, region, region_normal, region_depth, tolerance,
+    Va, Fa, Vb, Fb, Rab, tab,
+):  # fmt: skip
+    """Per region: crossing points plus vertex-face points, clustered, then at most four
+    corners; every contact takes the region's normal and depth."""
+    out_points = np.empty((0, 3))
+    out_faces = np.empty((0, 2), np.int64)
+    out_normals = np.empty((0, 3))
+    out_depths = np.empty(0)
+    for g in range(region_normal.shape[0]):
+        members = np.flatnonzero(point_region == g)
+        in_region = region == g
+        vertex_points, vertex_faces = _vertex_face_points(
+            np.unique(tri_pairs[in_region, 0]), np.unique(tri_pairs[in_region, 1]),
+            Va, Fa, Vb, Fb, Rab, tab, region_normal[g], region_depth[g], tolerance,
+        )  # fmt: skip
+        candidates = np.concatenate((points[members], vertex_points))
+        candidate_faces = np.concatenate((faces[members], vertex_faces))
+        count = candidates.shape[0]
+        if count == 0:
+            continue
+        normals = np.empty((count, 3))
+        depths = np.empty(count)
+        for r in range(count):
+            normals[r] = region_normal[g]
+            depths[r] = region_depth[g]
+        pts, nrm, dep, fcs = reduce_contacts(
+            candidates, normals, depths, candidate_faces, tolerance
+        )
+        keep = _manifold_corners(pts, region_normal[g])
+        out_points = np.concatenate((out_points, pts[keep]))
+        out_normals = np.concatenate((out_normals, nrm[keep]))
+        out_depths = np.concatenate((out_depths, dep[keep]))
+        out_faces = np.concatenate((out_faces, fcs[keep]))
     return out_points, out_normals, out_depths, out_faces
 
 
@@ -254,10 +562,13 @@ def contacts_for_pairs(
         # B's mesh frame in A's: R_ab = R_a^T R_b, t_ab = R_a^T (t_b - t_a)
         Rab = Ti[:3, :3].T @ Tj[:3, :3]
         tab = Ti[:3, :3].T @ (Tj[:3, 3] - Ti[:3, 3])
-        pts, nrm, dep, fcs = compute_contacts(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
-        pts, nrm, dep, fcs = reduce_contacts(
-            pts, nrm, dep, fcs, max(merge_tolerance[gi], merge_tolerance[gj])
-        )
+        pts, _, _, fcs = compute_contacts(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
+        region, region_normal, region_depth = region_normals(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
+        pts, nrm, dep, fcs = _region_manifolds(
+            pts, fcs, _region_of_faces(tri_pairs, region, fcs), tri_pairs, region,
+            region_normal, region_depth, max(merge_tolerance[gi], merge_tolerance[gj]),
+            Vi, Fi, Vj, Fj, Rab, tab,
+        )  # fmt: skip
         k = dep.shape[0]
         world_points = np.empty((k, 3))
         world_normals = np.empty((k, 3))

@@ -329,11 +329,31 @@ def _stewart_trinkle_lcp(A, u, bias, friction, sides):
 
 
 @njit
-def solve_exact(sides, contacts, bias, friction, bodies, impulse):
+def _lcp_residual(M, q, z):
+    """Largest violation of z >= 0, w = Mz + q >= 0 and z.w = 0, relative to the data."""
+    w = M @ z + q
+    scale = 1e-300
+    for i in range(q.shape[0]):
+        scale = max(scale, abs(q[i]))
+    worst = 0.0
+    for i in range(q.shape[0]):
+        worst = max(worst, -z[i] * max(1.0, abs(M[i, i])), -w[i], abs(z[i] * w[i]) / scale)
+    return worst / scale
+
+
+@njit
+def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_iterations=200):
     """Solve the contact problem exactly (Lemke on the Stewart-Trinkle LCP), in place.
 
-    Same arguments as ``solve_pgs``; ``impulse`` is overwritten (no warm start). Returns the
-    Lemke status (0 solved; otherwise the impulses of the last basis were applied).
+    Same arguments as ``solve_pgs``; ``impulse`` is overwritten (no warm start). The pivoting
+    answer is checked against the LCP conditions; if Lemke's path ended on a ray or the
+    answer misses them by more than 1e-6 relative (round-off on a badly degenerate island),
+    the island is solved by ``pgs_fallback_iterations`` PGS sweeps instead.
+
+    Returns
+    -------
+    status : int
+        0 solved exactly; 1 secondary ray, 2 pivot limit, 3 inaccurate: PGS was used.
     """
     c = contacts[0].shape[0]
     A = delassus_matrix(contacts, bodies)
@@ -343,6 +363,12 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse):
             u[3 * k + d] = relative_velocity(k, d, contacts, bodies)
     M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
     z, status, _ = lemke(M, q)
+    if status == 0 and _lcp_residual(M, q, z) > 1e-6:
+        status = 3
+    if status != 0:
+        impulse[:] = 0.0
+        solve_pgs(pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse)
+        return status
     contact_impulse = G @ z
     for k in range(c):
         for d in range(3):

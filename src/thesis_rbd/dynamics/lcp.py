@@ -32,6 +32,51 @@ LCP_STATUS = {0: "solved", 1: "secondary ray (no solution found)", 2: "iteration
 
 
 @njit
+def _lexicographic_ratio_test(T, basis, entering, n, artificial, pivot_tolerance):
+    """Leaving row for ``entering``: the lexicographic minimum ratio test, or -1 (ray).
+
+    Rows with a positive pivot compete on rhs / pivot; ties (redundant contacts make many)
+    are broken on the rows of B^-1 divided by the pivot, in column order, which cannot tie
+    for two rows and so rules out cycling (Cottle, Pang and Stone 4.9). If the artificial
+    variable's row is among the minimisers it leaves, ending the path.
+    """
+    width = 2 * n + 1
+    column_scale = 0.0
+    for i in range(n):
+        column_scale = max(column_scale, abs(T[i, entering]))
+    threshold = pivot_tolerance * max(column_scale, 1.0)
+    candidates = np.empty(n, np.int64)
+    count = 0
+    for i in range(n):
+        if T[i, entering] > threshold:
+            candidates[count] = i
+            count += 1
+    if count == 0:
+        return -1
+    for key in range(-1, n):
+        column = width if key < 0 else key
+        best = np.inf
+        for c in range(count):
+            i = candidates[c]
+            best = min(best, T[i, column] / T[i, entering])
+        tolerance = 1e-12 * max(1.0, abs(best))
+        kept = 0
+        for c in range(count):
+            i = candidates[c]
+            if T[i, column] / T[i, entering] <= best + tolerance:
+                candidates[kept] = i
+                kept += 1
+        count = kept
+        if key < 0:
+            for c in range(count):
+                if basis[candidates[c]] == artificial:
+                    return candidates[c]
+        if count == 1:
+            break
+    return candidates[0]
+
+
+@njit
 def lemke(M, q, max_pivots=0, pivot_tolerance=1e-12):
     """Solve LCP(M, q) by Lemke's method with the covering vector d = 1.
 
@@ -58,9 +103,9 @@ def lemke(M, q, max_pivots=0, pivot_tolerance=1e-12):
     Notes
     -----
     Variables are numbered w_0..w_{n-1} = 0..n-1, z_0..z_{n-1} = n..2n-1 and the artificial
-    z0 = 2n. The tableau holds B^-1 [I, -M, -d | q]; the ratio test breaks ties in favour of
-    z0 leaving (ending the path) and then of the largest pivot, which keeps the path out of
-    near-singular pivots on the degenerate problems redundant contacts produce.
+    z0 = 2n. The tableau holds B^-1 [I, -M, -d | q]; the leaving row comes from the
+    lexicographic minimum ratio test, so the degenerate problems that redundant contacts
+    produce cannot make the path cycle.
     """
     n = q.shape[0]
     z = np.zeros(n)
@@ -109,24 +154,7 @@ def lemke(M, q, max_pivots=0, pivot_tolerance=1e-12):
             break
         # the complement of the leaving variable enters
         entering = leaving + n if leaving < n else leaving - n
-        column_scale = 0.0
-        for i in range(n):
-            column_scale = max(column_scale, abs(T[i, entering]))
-        threshold = pivot_tolerance * max(column_scale, 1.0)
-        row = -1
-        best_ratio = np.inf
-        for i in range(n):
-            a = T[i, entering]
-            if a > threshold:
-                ratio = T[i, width] / a
-                if row < 0 or ratio < best_ratio - 1e-12 * max(1.0, abs(best_ratio)):
-                    row, best_ratio = i, ratio
-                elif ratio <= best_ratio + 1e-12 * max(1.0, abs(best_ratio)):
-                    # tie: let z0 leave, else take the larger pivot
-                    if basis[i] == artificial or (
-                        basis[row] != artificial and a > T[row, entering]
-                    ):
-                        row, best_ratio = i, min(ratio, best_ratio)
+        row = _lexicographic_ratio_test(T, basis, entering, n, artificial, pivot_tolerance)
         if row < 0:
             status = 1
             break

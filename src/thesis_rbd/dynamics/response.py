@@ -35,7 +35,7 @@ from thesis_rbd.dynamics.contact_solver import (
     solve_pgs,
 )
 from thesis_rbd.dynamics.islands import find_islands
-from thesis_rbd.spatial.quaternion import mul, normalize, to_matrix_into
+from thesis_rbd.spatial.quaternion import mul, normalize, quat_rotate, to_matrix_into
 
 __all__ = ["ContactSettings", "ImpulseCache", "resolve_contacts"]
 
@@ -90,41 +90,64 @@ class ContactSettings:
                 raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
 
 
+@njit
+def _match_previous(pair_keys, local_points, old_keys, old_points, old_impulses, radius):
+    """Impulse of the nearest previous contact of the same body pair within ``radius``."""
+    warm = np.zeros((pair_keys.shape[0], 3))
+    for k in range(pair_keys.shape[0]):
+        start = np.searchsorted(old_keys, pair_keys[k])
+        best, best_d2 = -1, radius * radius
+        i = start
+        while i < old_keys.shape[0] and old_keys[i] == pair_keys[k]:
+            d2 = 0.0
+            for a in range(3):
+                d2 += (old_points[i, a] - local_points[k, a]) ** 2
+            if d2 <= best_d2:
+                best, best_d2 = i, d2
+            i += 1
+        if best >= 0:
+            warm[k] = old_impulses[best]
+    return warm
+
+
 class ImpulseCache:
     """Impulses of the previous step's contacts, to warm-start PGS on the next.
 
-    A contact is recognised by its body pair and triangle pair; the four indices are hashed
-    into one int64 key (a clash only costs a worse first guess, never a wrong answer).
+    A contact is recognised by its body pair and by where it sits on body a (its point in
+    a's body frame): the nearest previous contact of the same pair within ``radius`` of it
+    hands over its impulse. Matching by place rather than by triangle pair keeps the warm
+    start when a resting contact's point is produced by a different triangle pair next step.
+    Impulses are kept as world vectors and read back in the new contact frame, whose
+    tangents may have turned (``contact_basis`` switches its reference axis).
     """
 
-    def __init__(self):
+    def __init__(self, radius: float = 0.01):
+        self.radius = radius
         self._keys = np.zeros(0, np.int64)
+        self._points = np.zeros((0, 3))
         self._impulses = np.zeros((0, 3))
 
     @staticmethod
-    def keys(contacts) -> np.ndarray:
-        """(c,) int64 keys of a contact set (body pair and face pair)."""
-        with np.errstate(over="ignore"):
-            key = contacts["body_a"].astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-            key ^= contacts["body_b"].astype(np.uint64) * np.uint64(0xC2B2AE3D27D4EB4F)
-            key ^= contacts["faces"][:, 0].astype(np.uint64) * np.uint64(0x165667B19E3779F9)
-            key ^= contacts["faces"][:, 1].astype(np.uint64) * np.uint64(0x27D4EB2F165667C5)
-        return key.view(np.int64)
+    def _describe(bodies, contacts):
+        a, b = contacts["body_a"], contacts["body_b"]
+        keys = a.astype(np.int64) * np.int64(bodies.count + 1) + b
+        conj = bodies.orientation[a] * np.array([-1.0, -1.0, -1.0, 1.0])
+        local = quat_rotate(conj, contacts["points"] - bodies.position[a]).reshape(-1, 3)
+        return keys, local
 
-    def lookup(self, contacts) -> np.ndarray:
-        """(c, 3) impulses of the matching previous contacts, zero where there is none."""
-        keys = self.keys(contacts)
-        warm = np.zeros((len(keys), 3))
-        if len(self._keys) and len(keys):
-            where = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
-            found = self._keys[where] == keys
-            warm[found] = self._impulses[where[found]]
-        return warm
+    def lookup(self, bodies, contacts, basis: np.ndarray) -> np.ndarray:
+        """(c, 3) impulses (n, t1, t2) of the matching previous contacts in the frames
+        ``basis`` (c, 3, 3); zero where there is none."""
+        keys, local = self._describe(bodies, contacts)
+        world = _match_previous(keys, local, self._keys, self._points, self._impulses, self.radius)
+        return np.einsum("cij,cj->ci", basis, world)
 
-    def store(self, contacts, impulse: np.ndarray) -> None:
-        keys = self.keys(contacts)
+    def store(self, bodies, contacts, impulse: np.ndarray, basis: np.ndarray) -> None:
+        """Remember this step's impulses (c, 3) given in the frames ``basis`` (c, 3, 3)."""
+        keys, local = self._describe(bodies, contacts)
+        impulse = np.einsum("cij,ci->cj", basis, impulse)
         order = np.argsort(keys, kind="stable")
-        self._keys, self._impulses = keys[order], impulse[order]
+        self._keys, self._points, self._impulses = keys[order], local[order], impulse[order]
 
 
 @njit
@@ -207,19 +230,19 @@ def _solve_islands(
 ):
     """Solve each island's contact problem on its slice of the island-sorted contacts.
 
-    Returns the worst Lemke status (0 when every island was solved exactly, or with PGS).
+    Returns how many islands the exact solver handed to PGS (0 with PGS itself).
     """
     body_a, body_b, arm_a, arm_b, basis = contacts
-    worst = 0
+    fallbacks = 0
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
         sub = (body_a[s:e], body_b[s:e], arm_a[s:e], arm_b[s:e], basis[s:e])
         if solver == 1:
             status = solve_exact(sides, sub, bias[s:e], friction[s:e], bodies, impulse[s:e])
-            worst = max(worst, status)
+            fallbacks += status != 0
         else:
             solve_pgs(iterations, sides, sub, bias[s:e], friction[s:e], bodies, impulse[s:e])
-    return worst
+    return fallbacks
 
 
 @njit
@@ -260,7 +283,7 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     info : dict
         ``islands``; ``impacts``, islands stepped back to their time of impact;
         ``max_depth``, the largest penetration left after projection (estimated to first
-        order); ``lemke_failures``, worst Lemke status (0: all exact).
+        order); ``lemke_fallbacks``, islands the exact solver handed to PGS.
     """
     b = world_bodies
     n = b.count
@@ -291,8 +314,8 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     bounces = u_before < -settings.bounce_threshold
     bias = np.where(bounces, b.restitution[body_a] * b.restitution[body_b] * u_before, 0.0)
 
-    impulse = cache.lookup(contacts)
-    lemke_failures = _solve_islands(
+    impulse = cache.lookup(b, contacts, basis)
+    lemke_fallbacks = _solve_islands(
         _SOLVERS.index(settings.solver),
         settings.iterations,
         settings.friction_sides,
@@ -303,7 +326,7 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         bodies,
         impulse,
     )
-    cache.store(contacts, impulse)
+    cache.store(b, contacts, impulse, basis)
 
     # stepped-back islands travel the rest of the step with their new velocities
     for t in np.unique(body_rewind[body_rewind > 0]):
@@ -331,17 +354,20 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         "islands": len(island_start) - 1,
         "impacts": len(np.unique(body_rewind[body_rewind > 0])),
         "max_depth": max_depth,
-        "lemke_failures": int(lemke_failures),
+        "lemke_fallbacks": int(lemke_fallbacks),
     }
 
 
 def _step_back_to_impact(b, contacts, bodies, acceleration, dt, settings, detector):
     """Move each island with an impact back to its time of impact; recompute its contacts.
 
-    An impact is a contact approaching faster than the bounce threshold. The island's bodies
-    retrace their ballistic path; bisection on the yes/no intersection query finds the last
-    time before the present at which they did not touch, to dt / 2^12. Islands already
-    touching at the start of the step (resting contact) are left where they are.
+    An impact is a contact approaching faster than the bounce threshold. Only islands made of
+    impacts alone are stepped back: one resting contact means the island is supported, and
+    retracing it along a free-fall path would drag the support along (a box falling onto a
+    resting stack is left to the position projection). The island's bodies retrace their
+    ballistic path; bisection on the yes/no intersection query finds the last time before
+    the present at which they did not touch, to dt / 2^12. Islands already touching at the
+    start of the step are left where they are.
 
     Returns the new contact set and the time each body was stepped back (n,).
     """
@@ -361,7 +387,8 @@ def _step_back_to_impact(b, contacts, bodies, acceleration, dt, settings, detect
     body_island, _, _ = find_islands(n, body_a, body_b, b.static)
     contact_island = np.where(b.static[body_a], body_island[body_b], body_island[body_a])
     rewound_contacts = np.zeros(len(body_a), bool)
-    for island in np.unique(contact_island[impacting]):
+    resting_islands = np.unique(contact_island[~impacting])
+    for island in np.setdiff1d(np.unique(contact_island[impacting]), resting_islands):
         members = body_island == island
         in_island = contact_island == island
         pairs = np.unique(np.stack([body_a[in_island], body_b[in_island]], axis=1), axis=0)
