@@ -26,12 +26,29 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from validation.studies import dzhanibekov, free_flight_benchmarks, integrators, long_runs
+from validation.studies import (
+    collision_modes,
+    dzhanibekov,
+    free_flight_benchmarks,
+    integrators,
+    long_runs,
+    obb_vs_aabb,
+    obbtree_variants,
+)
 
 __all__ = ["STUDIES", "get_study"]
 
 STUDIES: dict[str, ModuleType] = {
-    module.NAME: module for module in (integrators, dzhanibekov, long_runs, free_flight_benchmarks)
+    module.NAME: module
+    for module in (
+        integrators,
+        dzhanibekov,
+        long_runs,
+        free_flight_benchmarks,
+        collision_modes,
+        obbtree_variants,
+        obb_vs_aabb,
+    )
 }
 
 
