@@ -21,7 +21,7 @@ from time import perf_counter
 import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
-from thesis_rbd.collision.pipeline import CollisionPipeline
+from thesis_rbd.collision.pipeline import CollisionPipeline, empty_contacts
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.forces import (
     AppliedForces,
@@ -30,7 +30,13 @@ from thesis_rbd.dynamics.forces import (
     world_arm_to_body,
 )
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
-from thesis_rbd.dynamics.response import ContactSettings, ImpulseCache, resolve_contacts
+from thesis_rbd.dynamics.response import (
+    ContactSettings,
+    ImpulseCache,
+    body_velocities,
+    resolve_contacts,
+)
+from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.geometry.mass import mass_properties
 from thesis_rbd.geometry.mesh import TriangleMesh
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate, quat_to_matrix
@@ -61,7 +67,7 @@ class World:
     contact_solver : {"pgs", "exact"}
         Projected Gauss-Seidel or Lemke's exact method for the contact LCP.
     contact_iterations : int
-        PGS sweeps per step.
+        Largest number of PGS sweeps per step (they stop early once converged).
     friction_sides : int
         Sides of the polygonal friction cone.
     bounce_threshold : float
@@ -70,6 +76,8 @@ class World:
         Penetration (m) the position projection leaves, so resting contacts persist.
     penetration : {"toi", "projection"}
         Step impacting islands back to the time of impact, or only project positions.
+    sleeping : bool
+        Let islands at rest fall asleep (frozen, free of cost) until touched or pushed.
     """
 
     def __init__(
@@ -82,11 +90,12 @@ class World:
         angular_drag: float = 0.0,
         contact_response: bool = True,
         contact_solver: str = "pgs",
-        contact_iterations: int = 30,
+        contact_iterations: int = 100,
         friction_sides: int = 8,
         bounce_threshold: float = 0.1,
         slop: float = 1e-4,
         penetration: str = "toi",
+        sleeping: bool = True,
     ):
         self.dt = as_positive_scalar(dt, "dt")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
@@ -114,6 +123,7 @@ class World:
             penetration=penetration,
         )
         self._collision = CollisionPipeline()
+        self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._impulse_cache = ImpulseCache()
         self._resolved: dict[str, np.ndarray] | None = None
         self.contact_info: dict = {}
@@ -211,6 +221,7 @@ class World:
             static=bool(static),
         )
         self._collision.add_body(mesh)
+        self._sleep.resize(self.bodies.count)
         self._plan_stages()
         return index
 
@@ -240,6 +251,7 @@ class World:
             arm = world_arm_to_body(point, b.position[body], b.orientation[body])
         remaining = math.inf if duration is None else as_positive_scalar(duration, "duration")
         self.applied_forces.add(body, force, arm, remaining)
+        self._sleep.wake(np.array([body]))
         self._plan_stages()
 
     # ------------------------------------------------------------------ stepping
@@ -263,13 +275,15 @@ class World:
         if gathers_forces:
             pipeline.append(("forces", self._stage_forces, always))
         if dynamic:
-            pipeline.append(("integrate", self._stage_integrate, always))
+            pipeline.append(("integrate", self._stage_integrate, self._any_awake))
         if collides:
-            pipeline.append(("bounds", self._stage_bounds, always))
-            pipeline.append(("broad_phase", self._stage_broad_phase, always))
+            pipeline.append(("bounds", self._stage_bounds, self._any_awake))
+            pipeline.append(("broad_phase", self._stage_broad_phase, self._any_awake))
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
             if self.contact_response:
                 pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
+        if dynamic and self._sleep.settings.enabled:
+            pipeline.append(("sleep", self._stage_sleep, self._any_awake))
         self._pipeline = pipeline
         self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
@@ -306,6 +320,15 @@ class World:
         if len(applied) == 0:
             self._stale_plan = True  # the last applied force ran out: replan after this step
 
+    def _any_awake(self) -> bool:
+        return not self._sleep.any_asleep or not bool(
+            np.all(self.bodies.static | self._sleep.asleep)
+        )
+
+    def _resting(self) -> np.ndarray:
+        """(n,) bool: bodies that do not move this step (static or asleep)."""
+        return self.bodies.static | self._sleep.asleep
+
     def _stage_integrate(self) -> None:
         """Advance free motion of every dynamic body by one step."""
         b = self.bodies
@@ -314,7 +337,7 @@ class World:
             INTEGRATORS[self.integrator],
             self.dt,
             b.count,
-            b.full("static"),
+            self._resting(),
             b.full("position"),
             b.full("orientation"),
             b.full("linear_momentum"),
@@ -334,17 +357,23 @@ class World:
 
     def _stage_broad_phase(self) -> None:
         """Sweep-and-prune: candidate pairs with at least one moving body."""
-        self._collision.broad_phase(resting=self.bodies.static)
+        self._collision.broad_phase(resting=self._resting())
 
     def _has_candidates(self) -> bool:
-        return len(self._collision.candidate_pairs) > 0
+        return self._any_awake() and len(self._collision.candidate_pairs) > 0
 
     def _stage_narrow_phase(self) -> None:
-        """OBBTree contacts of the candidate pairs."""
+        """OBBTree contacts of the candidate pairs; a touched sleeping island wakes."""
         self._collision.narrow_phase(self.bodies)
+        if self._sleep.any_asleep and self._sleep.wake_touched(
+            self._collision.contacts, self.bodies.static
+        ):
+            # the woken islands' own contacts were not candidates: find them now
+            self._collision.broad_phase(resting=self._resting())
+            self._collision.narrow_phase(self.bodies)
 
     def _has_contacts(self) -> bool:
-        return len(self._collision.contacts["depths"]) > 0
+        return self._any_awake() and len(self._collision.contacts["depths"]) > 0
 
     def _stage_contacts(self) -> None:
         """Impulses with restitution and friction, time of impact, position projection."""
@@ -357,6 +386,27 @@ class World:
             self._impulse_cache,
             self._collision,
         )
+
+    def _stage_sleep(self) -> None:
+        """Islands still for long enough fall asleep with zero velocity."""
+        b = self.bodies
+        v, w, _ = body_velocities(
+            b.count,
+            b.full("orientation"),
+            b.full("linear_momentum"),
+            b.full("angular_momentum"),
+            b.full("inverse_mass"),
+            b.full("inverse_inertia_body"),
+        )
+        contacts = self._collision.contacts if self._has_contacts() else empty_contacts()
+        fell = self._sleep.update(b, contacts, v, w, self.dt)
+        b.linear_momentum[fell] = 0.0
+        b.angular_momentum[fell] = 0.0
+
+    @property
+    def sleeping(self) -> np.ndarray:
+        """(n,) bool copy: which bodies are asleep."""
+        return self._sleep.asleep.copy()
 
     @property
     def contacts(self) -> dict[str, np.ndarray]:

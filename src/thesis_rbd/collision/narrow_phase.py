@@ -301,12 +301,24 @@ def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
                 if d < best:
                     best, best_u = d, u
         if faces_a.shape[0] * faces_b.shape[0] <= _EDGE_AXES_FACE_PAIRS:
-            # the side from B towards A orients each edge-edge axis
+            # Orient each edge-edge axis from B towards A by the faces' own sides: B's
+            # outward normals point at A and A's at B, so their area-weighted sums give the
+            # direction; the centroids of two surface patches do not (a ball's patch and a
+            # floor's lie side by side, not one above the other).
             towards_a = np.zeros(3)
-            for c in range(corners_a.shape[0]):
-                towards_a += corners_a[c] / corners_a.shape[0]
-            for c in range(corners_b.shape[0]):
-                towards_a -= corners_b[c] / corners_b.shape[0]
+            for i in range(faces_b.shape[0]):
+                towards_a += np.cross(
+                    corners_b[3 * i + 1] - corners_b[3 * i], corners_b[3 * i + 2] - corners_b[3 * i]
+                )
+            for i in range(faces_a.shape[0]):
+                towards_a -= np.cross(
+                    corners_a[3 * i + 1] - corners_a[3 * i], corners_a[3 * i + 2] - corners_a[3 * i]
+                )
+            if towards_a @ towards_a == 0.0:
+                for c in range(corners_a.shape[0]):
+                    towards_a += corners_a[c] / corners_a.shape[0]
+                for c in range(corners_b.shape[0]):
+                    towards_a -= corners_b[c] / corners_b.shape[0]
             for i in range(faces_a.shape[0]):
                 for ea in range(3):
                     pa = corners_a[3 * i + (ea + 1) % 3] - corners_a[3 * i + ea]
@@ -401,9 +413,10 @@ def _project_along(p, u, t0, t1, t2, margin):
 @njit
 def _vertex_face_points(faces_a, faces_b, Va, Fa, Vb, Fb, Rab, tab, u, depth, band):
     """Vertex-face contacts of a region (thesis 5.2): corners of one side's region faces
-    that lie inside the other side's region faces, at most ``depth + band`` deep along u.
-    A corner within ``band`` of a face's edge counts as inside: where two boxes' edges
-    nearly coincide, the corner of their overlap is such a corner.
+    that lie inside the other side's region faces, touching or at most ``depth + band`` deep
+    along u (a corner short of the face is no contact: it would get restitution it has not
+    earned). A corner within ``band`` of a face's edge counts as inside: where two boxes'
+    edges nearly coincide, the corner of their overlap is such a corner.
 
     Returns points (q, 3) in A's frame, midway between the corner and the face it is
     pressed into, and their [face of A, face of B] pairs.
@@ -432,7 +445,7 @@ def _vertex_face_points(faces_a, faces_b, Va, Fa, Vb, Fb, Rab, tab, u, depth, ba
                         t1 = np.array(_corner(Va, Fa, other[j], 1, identity, zero))
                         t2 = np.array(_corner(Va, Fa, other[j], 2, identity, zero))
                     s = _project_along(p, direction, t0, t1, t2, band)
-                    if s == s and -band <= s <= depth + band:
+                    if s == s and -1e-9 * band <= s <= depth + band:
                         point = (p + 0.5 * s * direction).reshape(1, 3)
                         points = np.concatenate((points, point))
                         pair = np.empty((1, 2), np.int64)

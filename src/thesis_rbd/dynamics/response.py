@@ -52,7 +52,8 @@ class ContactSettings:
     solver : {"pgs", "exact"}
         Projected Gauss-Seidel (fast, iterative) or Lemke's method (exact, cubic per island).
     iterations : int
-        PGS sweeps per step (also used for the position projection).
+        Largest number of PGS sweeps per step (also for the position projection); sweeps
+        stop early once the impulses have converged.
     friction_sides : int
         Sides of the polygon approximating the friction cone (>= 3).
     bounce_threshold : float
@@ -67,7 +68,7 @@ class ContactSettings:
     """
 
     solver: str = "pgs"
-    iterations: int = 30
+    iterations: int = 100
     friction_sides: int = 8
     bounce_threshold: float = 0.1
     slop: float = 1e-4
