@@ -19,13 +19,15 @@ import math
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array
 from thesis_rbd.collision import _sap_kernels as kernels
 from thesis_rbd.collision.pair_table import keys_to_pairs, new_table, table_from_keys
 
 __all__ = ["SweepAndPrune"]
 
 _EMPTY_PAIRS = np.empty((0, 2), dtype=np.int64)
+_EMPTY_PAIRS.flags.writeable = False
+_NO_BOX = np.empty((0, 6), dtype=np.float64)
+_INT64_MAX = int(np.iinfo(np.int64).max)
 
 # Price of a full rebuild in "insertion-sort swaps": one swap costs about as much as COST_SORT
 # endpoint-sort steps (m log2 m per axis) and COST_SWEEP overlap checks of the sweep
@@ -44,22 +46,58 @@ _STRATEGIES = ("auto", "incremental", "full")
 _MAX_OBJECTS = 2**31 - 1
 
 
-def _check_boxes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
-    """Validated (n, 3) float64 copies of ``lower``/``upper``, or ValueError; no state change."""
-    lo = as_finite_array(lower, "lower", shape=(None, 3))
-    hi = as_finite_array(upper, "upper", shape=(None, 3))
+def _as_bounds(value, name: str) -> np.ndarray:
+    """``value`` as a C-contiguous (n, 3) float64 array (maybe the caller's own), or ValueError."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from exc
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3), got {array.shape}")
+    return np.ascontiguousarray(array)
+
+
+def _check_shapes(lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """Both bound arrays as C-contiguous (n, 3) float64 of one shape; values not checked."""
+    lo = _as_bounds(lower, "lower")
+    hi = _as_bounds(upper, "upper")
     if lo.shape != hi.shape:
         raise ValueError(f"lower and upper must have the same shape, got {lo.shape} and {hi.shape}")
-    bad = lo > hi
-    if bad.any():
-        row, axis = (int(x) for x in np.argwhere(bad)[0])
-        raise ValueError(
-            f"box {row} has lower > upper on axis {axis}: {lo[row, axis]!r} > {hi[row, axis]!r}"
-        )
     if lo.shape[0] > _MAX_OBJECTS:
         raise ValueError(f"at most {_MAX_OBJECTS} boxes are supported, got {lo.shape[0]}")
-    # as_finite_array may hand back the caller's own array; the state must not alias it.
-    return np.array(lo, copy=True), np.array(hi, copy=True)
+    return lo, hi
+
+
+def _bad_bounds(bad: int, row: int, axis: int, lo: np.ndarray, hi: np.ndarray) -> ValueError:
+    """The error for ``stage_bounds``'s finding ``bad`` at (row, axis)."""
+    if bad == 1:
+        return ValueError(f"lower holds a non-finite value {lo[row, axis]} at index {(row, axis)}")
+    if bad == 2:
+        return ValueError(f"upper holds a non-finite value {hi[row, axis]} at index {(row, axis)}")
+    return ValueError(
+        f"box {row} has lower > upper on axis {axis}: {lo[row, axis]!r} > {hi[row, axis]!r}"
+    )
+
+
+def _staged(lower, upper) -> np.ndarray:
+    """Validated (n, 6) box table of ``lower``/``upper`` (a new array), or ValueError."""
+    lo, hi = _check_shapes(lower, upper)
+    box = np.empty((lo.shape[0], 6), dtype=np.float64)
+    bad, row, axis, _ = kernels.stage_bounds(lo, hi, box, _NO_BOX, True)
+    if bad:
+        raise _bad_bounds(bad, row, axis, lo, hi)
+    return box
+
+
+def _staged_trusted(lower, upper) -> np.ndarray:
+    """(n, 6) box table of bounds the caller vouches for (see ``update(check=False)``)."""
+    box = np.empty((lower.shape[0], 6), dtype=np.float64)
+    kernels.stage_bounds(lower, upper, box, _NO_BOX, False)
+    return box
+
+
+def _to_pairs(keys: np.ndarray) -> np.ndarray:
+    return keys_to_pairs(keys) if keys.shape[0] else np.empty((0, 2), dtype=np.int64)
 
 
 class SweepAndPrune:
@@ -102,31 +140,43 @@ class SweepAndPrune:
         self.strategy = strategy
         # Transitions buffered between pair-table updates inside a frame (tests shrink it).
         self._log_capacity = 4096
+        self._log_keys = np.empty(0, dtype=np.int64)
+        self._log_start = np.empty(0, dtype=np.uint8)
         self._prediction_margin = _PREDICTION_MARGIN
-        self._lower = np.empty((0, 3), dtype=np.float64)
-        self._upper = np.empty((0, 3), dtype=np.float64)
+        # Bounds by id (see _sap_kernels): the current table and a spare one that the next
+        # frame is written into, so that no frame allocates.
+        self._box = np.empty((0, 6), dtype=np.float64)
+        self._spare = np.empty((0, 6), dtype=np.float64)
         self._val = np.empty((3, 0), dtype=np.float64)
         self._ep = np.empty((3, 0), dtype=np.int64)
+        self._other = np.empty((0, 4), dtype=np.float64)
         self._keys, self._flags, self._meta = new_table(0)
         self._pair_keys = np.empty(0, dtype=np.int64)
         self._pairs_cache: np.ndarray | None = _EMPTY_PAIRS
         # Overlap checks of the last sort-and-sweep: prices the next fallback decision.
         self._sweep_checks = 0
-        self.stats: dict = {
-            "swaps": 0,
-            "full_resort": False,
-            "budget": 0,
-            "predicted_swaps": 0,
-            "pairs": 0,
-            "added": 0,
-            "removed": 0,
-        }
+        # About the last call; `stats` turns them into a dict on demand.
+        self._last = (0, False, 0, 0.0, 0, 0)
 
     # ------------------------------------------------------------------ public API
 
     def __len__(self) -> int:
         """Number of objects."""
-        return self._lower.shape[0]
+        return self._box.shape[0]
+
+    @property
+    def stats(self) -> dict:
+        """About the last call (see the class docstring); a new dict on each access."""
+        swaps, full, budget, predicted, added, removed = self._last
+        return {
+            "swaps": int(swaps),
+            "full_resort": bool(full),
+            "budget": int(budget),
+            "predicted_swaps": int(min(predicted, 2.0**62)),
+            "pairs": int(self._pair_keys.shape[0]),
+            "added": int(added),
+            "removed": int(removed),
+        }
 
     @property
     def pairs(self) -> np.ndarray:
@@ -140,18 +190,18 @@ class SweepAndPrune:
     @property
     def lower(self) -> np.ndarray:
         """(n, 3) float64 lower bounds of the objects as last given (a read-only view)."""
-        view = self._lower.view()
+        view = self._box[:, 0::2]
         view.flags.writeable = False
         return view
 
     @property
     def upper(self) -> np.ndarray:
         """(n, 3) float64 upper bounds of the objects as last given (a read-only view)."""
-        view = self._upper.view()
+        view = self._box[:, 1::2]
         view.flags.writeable = False
         return view
 
-    def update(self, lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    def update(self, lower, upper, check: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Move every object to new bounds and return the pairs that began and ended overlapping.
 
         Parameters
@@ -160,6 +210,12 @@ class SweepAndPrune:
             Box bounds, row i = object i; ``lower <= upper`` elementwise, all finite. ``n``
             must equal ``len(self)``, except on an empty broad phase, where any ``n`` is the
             first frame (all its pairs are "added"). Use ``add``/``remove`` to change ``n``.
+        check : bool, optional
+            ``False`` is the fast path for trusted callers (the World's pipeline, every step):
+            ``lower``/``upper`` must then already be C-contiguous (n, 3) float64 arrays with
+            finite values and ``lower <= upper``; only the row count is checked. Broken
+            bounds give a wrong pair set rather than an error. The bounds are copied, so the
+            caller may overwrite its arrays afterwards.
 
         Returns
         -------
@@ -173,40 +229,53 @@ class SweepAndPrune:
             On a wrong shape, a row count other than ``len(self)``, a non-finite value, or
             ``lower > upper``. The state is unchanged then.
         """
-        lo, hi = _check_boxes(lower, upper)
-        n = lo.shape[0]
-        if len(self) > 0 and n != len(self):
+        if check:
+            lower, upper = _check_shapes(lower, upper)
+        n = lower.shape[0]
+        box = self._box
+        if box.shape[0] == 0:
+            self._box = _staged(lower, upper) if check else _staged_trusted(lower, upper)
+            self._spare = np.empty_like(self._box)
+            added, removed = self._rebuild(budget=0, swaps=0)
+            return _to_pairs(added), _to_pairs(removed)
+        if n != box.shape[0]:
             raise ValueError(
-                f"update got {n} boxes but the broad phase holds {len(self)} objects; "
+                f"update got {n} boxes but the broad phase holds {box.shape[0]} objects; "
                 "call add() or remove() to change the number of objects"
             )
-        if len(self) == 0:
-            self._lower, self._upper = lo, hi
-            added, removed = self._rebuild(budget=0, swaps=0)
-            return keys_to_pairs(added), keys_to_pairs(removed)
-        old_lo, old_hi = self._lower, self._upper
-        self._lower, self._upper = lo, hi
+        if self._log_keys.shape[0] != self._log_capacity:
+            self._log_keys = np.empty(self._log_capacity, dtype=np.int64)
+            self._log_start = np.empty(self._log_capacity, dtype=np.uint8)
         budget = self._swap_budget()
-        predicted = kernels.predict_swaps(lo, hi, old_lo, old_hi)
-        if self.strategy == "full" or (
-            self.strategy == "auto" and predicted > self._prediction_margin * budget
-        ):
-            # Clearly incoherent (teleports): do not spend the budget to find out.
-            added, removed = self._rebuild(budget=budget, swaps=0)
+        if self.strategy == "full":
+            skip_above = -1.0
+        elif self.strategy == "auto":
+            skip_above = self._prediction_margin * budget
         else:
-            status, swaps, keys, flags, touched = kernels.insertion_sort_frame(
-                lo, hi, old_lo, old_hi, self._val, self._ep, self._keys, self._flags, self._meta,
-                budget, self._log_capacity,
-            )  # fmt: skip
-            self._keys, self._flags = keys, flags
-            if status == kernels.OVER_BUDGET:
-                added, removed = self._rebuild(budget=budget, swaps=swaps)
-            else:
-                added, removed = kernels.collect_events(keys, flags, self._meta, touched)
-                self._set_pair_keys(kernels.merge_pair_keys(self._pair_keys, removed, added))
-                self._record(swaps, False, budget, added, removed)
-        self.stats["predicted_swaps"] = int(min(predicted, 2.0**62))
-        return keys_to_pairs(added), keys_to_pairs(removed)
+            skip_above = math.inf
+        spare = self._spare
+        status, bad, row, axis, predicted, swaps, keys, flags, pair_keys, added, removed = (
+            kernels.update_frame(
+                lower, upper, spare, box, self._val, self._ep, self._other, self._keys,
+                self._flags, self._meta, self._pair_keys, budget, skip_above, check,
+                self._log_keys, self._log_start,
+            )
+        )  # fmt: skip
+        if status == kernels.BAD_BOUNDS:
+            raise _bad_bounds(bad, row, axis, lower, upper)
+        # The spare table holds the new bounds now; the old table becomes the spare.
+        self._box, self._spare = spare, box
+        self._keys, self._flags = keys, flags
+        if status == kernels.DONE:
+            if added.shape[0] or removed.shape[0]:
+                self._set_pair_keys(pair_keys)
+            self._last = (swaps, False, budget, predicted, added.shape[0], removed.shape[0])
+        else:
+            # PREDICTED_OVER: clearly incoherent (teleports), the insertion sort was skipped;
+            # OVER_BUDGET: it was abandoned and its partial state is discarded.
+            added, removed = self._rebuild(budget=budget, swaps=swaps)
+            self._last = self._last[:3] + (predicted,) + self._last[4:]
+        return _to_pairs(added), _to_pairs(removed)
 
     def add(self, lower, upper) -> tuple[np.ndarray, np.ndarray]:
         """Append objects; their endpoints are merged into the sorted axes (no re-sort).
@@ -224,31 +293,30 @@ class SweepAndPrune:
             The pairs the new objects overlap in, sorted; they are in ``pairs`` at once and
             are not reported again by the next ``update``.
         """
-        lo, hi = _check_boxes(lower, upper)
+        new_box = _staged(lower, upper)
         first = len(self)
-        m = lo.shape[0]
+        m = new_box.shape[0]
         if first + m > _MAX_OBJECTS:
             raise ValueError(f"at most {_MAX_OBJECTS} objects are supported")
         ids = np.arange(first, first + m, dtype=np.int64)
         if m == 0:
-            self._record(0, False, 0, np.empty(0, np.int64), np.empty(0, np.int64))
+            self._record(0, False, 0, 0, 0)
             return ids, _EMPTY_PAIRS.copy()
-        all_lo = np.concatenate([self._lower, lo])
-        all_hi = np.concatenate([self._upper, hi])
+        all_box = np.concatenate([self._box, new_box])
         total = first + m
         # Brute force against every object costs m * total checks; a rebuild costs a sort and
         # a sweep. A few bodies joining a large scene take the first, a bulk load the second.
         if first == 0 or m * total > self._rebuild_price(2 * total):
-            self._lower, self._upper = all_lo, all_hi
+            self._set_box(all_box)
             added, removed = self._rebuild(budget=0, swaps=0)
             assert removed.shape[0] == 0  # old boxes did not move, so no pair can end
             return ids, keys_to_pairs(added)
-        new_keys = kernels.pairs_with_new(all_lo, all_hi, first)
-        self._val, self._ep = kernels.merge_endpoints(self._val, self._ep, lo, hi, first)
-        self._lower, self._upper = all_lo, all_hi
+        new_keys = kernels.pairs_with_new(all_box, first)
+        self._val, self._ep = kernels.merge_endpoints(self._val, self._ep, new_box, first)
+        self._set_box(all_box)
         self._set_pair_keys(kernels.merge_pair_keys(self._pair_keys, new_keys[:0], new_keys))
         self._keys, self._flags, self._meta = table_from_keys(self._pair_keys)
-        self._record(0, False, 0, new_keys, np.empty(0, np.int64))
+        self._record(0, False, 0, new_keys.shape[0], 0)
         return ids, keys_to_pairs(new_keys)
 
     def remove(self, ids) -> np.ndarray:
@@ -284,11 +352,10 @@ class SweepAndPrune:
         gone[idx] = True
         val, ep, kept, removed = kernels.compact_removed(self._val, self._ep, self._pair_keys, gone)
         self._val, self._ep = val, ep
-        self._lower = self._lower[~gone]
-        self._upper = self._upper[~gone]
+        self._set_box(self._box[~gone])
         self._set_pair_keys(kept)
         self._keys, self._flags, self._meta = table_from_keys(kept)
-        self._record(0, False, 0, np.empty(0, np.int64), removed)
+        self._record(0, False, 0, 0, removed.shape[0])
         return keys_to_pairs(removed)
 
     # ------------------------------------------------------------------ internals
@@ -300,20 +367,28 @@ class SweepAndPrune:
 
     def _swap_budget(self) -> int:
         if self.strategy == "incremental":
-            return np.iinfo(np.int64).max
+            return _INT64_MAX
         return self._rebuild_price(self._ep.shape[1])
+
+    def _set_box(self, box: np.ndarray) -> None:
+        """New object set: its bounds table, a spare of the same size, scratch records."""
+        self._box = np.ascontiguousarray(box)
+        self._spare = np.empty_like(self._box)
+        self._other = np.empty((2 * self._box.shape[0], 4), dtype=np.float64)
 
     def _rebuild(self, budget: int, swaps: int) -> tuple[np.ndarray, np.ndarray]:
         """Sort from scratch, sweep the axis with fewest overlaps, diff against the old set."""
-        self._val, self._ep = kernels.sort_axes(self._lower, self._upper)
+        if self._other.shape[0] != 2 * self._box.shape[0]:
+            self._other = np.empty((2 * self._box.shape[0], 4), dtype=np.float64)
+        self._val, self._ep = kernels.sort_axes(self._box)
         per_axis = kernels.axis_overlap_counts(self._ep)
         axis = int(np.argmin(per_axis))
-        new_keys = kernels.sweep_all_pairs(self._lower, self._upper, self._ep, axis)
+        new_keys = kernels.sweep_all_pairs(self._box, self._ep, axis)
         self._sweep_checks = int(per_axis[axis])
         added, removed = kernels.diff_sorted(self._pair_keys, new_keys)
         self._set_pair_keys(new_keys)
         self._keys, self._flags, self._meta = table_from_keys(new_keys)
-        self._record(swaps, True, budget, added, removed)
+        self._record(swaps, True, budget, added.shape[0], removed.shape[0])
         return added, removed
 
     def _set_pair_keys(self, keys: np.ndarray) -> None:
@@ -321,26 +396,20 @@ class SweepAndPrune:
         self._pairs_cache = None
 
     def _record(self, swaps, full, budget, added, removed) -> None:
-        self.stats = {
-            "swaps": int(swaps),
-            "full_resort": bool(full),
-            "budget": int(budget),
-            "predicted_swaps": 0,
-            "pairs": int(self._pair_keys.shape[0]),
-            "added": int(added.shape[0]),
-            "removed": int(removed.shape[0]),
-        }
+        self._last = (swaps, full, budget, 0.0, added, removed)
 
     def _check_invariants(self) -> None:
         """Assert the internal state is consistent (tests and debugging; O(n log n + k))."""
         n = len(self)
         m = 2 * n
         assert self._val.shape == (3, m) and self._ep.shape == (3, m)
+        assert self._spare.shape == self._box.shape == (n, 6)
+        assert self._other.shape == (m, 4)
         for a in range(3):
             ep = self._ep[a]
             assert np.array_equal(np.sort(ep), np.arange(m)), "endpoint codes not a permutation"
             ids, is_end = ep >> 1, ep & 1
-            expected = np.where(is_end == 1, self._upper[ids, a], self._lower[ids, a])
+            expected = self._box[ids, 2 * a + is_end]
             assert np.array_equal(self._val[a], expected), "stale endpoint values"
             key_ok = (self._val[a][:-1] < self._val[a][1:]) | (
                 (self._val[a][:-1] == self._val[a][1:]) & (is_end[:-1] <= is_end[1:])
