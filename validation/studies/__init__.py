@@ -29,6 +29,7 @@ from types import ModuleType
 from validation.studies import (
     collision_modes,
     dzhanibekov,
+    fcl_crosscheck,
     free_flight_benchmarks,
     integrators,
     long_runs,
@@ -48,6 +49,7 @@ STUDIES: dict[str, ModuleType] = {
         collision_modes,
         obbtree_variants,
         obb_vs_aabb,
+        fcl_crosscheck,
     )
 }
 
