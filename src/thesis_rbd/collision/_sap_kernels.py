@@ -384,12 +384,13 @@ def stage_bounds(lower, upper, box, old_box, check):
 
 @njit
 def coherent_frame(box, old_box, val, ep, other, keys, flags, meta, pair_keys, budget,
-                   log_keys, log_start):  # fmt: skip
+                   log_keys, log_start, no_keys):  # fmt: skip
     """Insertion sort, net events and the new sorted pair list of a frame, in one call.
 
     One kernel call per coherent frame keeps the dispatch cost of a small scene low (the
     World calls this every step). Arguments as ``insertion_sort_frame``; ``pair_keys`` is the
-    sorted pair list of the previous frame.
+    sorted pair list of the previous frame; ``no_keys`` an empty int64 array, returned as
+    the events of a frame without any.
 
     Returns
     -------
@@ -404,9 +405,10 @@ def coherent_frame(box, old_box, val, ep, other, keys, flags, meta, pair_keys, b
     status, swaps, keys, flags, touched = insertion_sort_frame(
         box, old_box, val, ep, other, keys, flags, meta, budget, log_keys, log_start
     )
-    if status != DONE:
-        empty = np.empty(0, dtype=np.int64)
-        return status, swaps, keys, flags, pair_keys, empty, empty
+    if status != DONE or touched.shape[0] == 0:
+        # Nothing to collect. Handing back arrays the caller passed in is cheap: numba
+        # returns their Python objects instead of wrapping new ones.
+        return status, swaps, keys, flags, pair_keys, no_keys, no_keys
     added, removed = collect_events(keys, flags, meta, touched)
     if added.shape[0] or removed.shape[0]:
         pair_keys = merge_pair_keys(pair_keys, removed, added)
@@ -704,7 +706,7 @@ def compact_removed(val, ep, pair_keys, gone):
 
 @njit
 def update_frame(lower, upper, box, old_box, val, ep, other, keys, flags, meta, pair_keys,
-                 budget, skip_above, check, log_keys, log_start):  # fmt: skip
+                 budget, skip_above, check, log_keys, log_start, no_keys):  # fmt: skip
     """A whole ``SweepAndPrune.update`` frame in one kernel call (stage, sort, events).
 
     Parameters
@@ -724,6 +726,8 @@ def update_frame(lower, upper, box, old_box, val, ep, other, keys, flags, meta, 
         exceeds this: the frame is clearly incoherent and the caller rebuilds.
     check : bool
         Validate the bounds (status ``BAD_BOUNDS``, nothing else done).
+    no_keys : (0,) int64
+        Returned as ``added``/``removed`` when there are none.
 
     Returns
     -------
@@ -736,12 +740,12 @@ def update_frame(lower, upper, box, old_box, val, ep, other, keys, flags, meta, 
         As ``coherent_frame``.
     """
     bad, row, axis, predicted = stage_bounds(lower, upper, box, old_box, check)
-    empty = np.empty(0, dtype=np.int64)
     if bad:
-        return BAD_BOUNDS, bad, row, axis, predicted, 0, keys, flags, pair_keys, empty, empty
+        return BAD_BOUNDS, bad, row, axis, predicted, 0, keys, flags, pair_keys, no_keys, no_keys
     if predicted > skip_above:
-        return PREDICTED_OVER, 0, 0, 0, predicted, 0, keys, flags, pair_keys, empty, empty
+        return PREDICTED_OVER, 0, 0, 0, predicted, 0, keys, flags, pair_keys, no_keys, no_keys
     status, swaps, keys, flags, pair_keys, added, removed = coherent_frame(
-        box, old_box, val, ep, other, keys, flags, meta, pair_keys, budget, log_keys, log_start
-    )
+        box, old_box, val, ep, other, keys, flags, meta, pair_keys, budget, log_keys, log_start,
+        no_keys,
+    )  # fmt: skip
     return status, 0, 0, 0, predicted, swaps, keys, flags, pair_keys, added, removed

@@ -94,7 +94,7 @@ class CollisionPipeline:
         known = len(self.sap)
         if known < n:
             self.sap.add(self.lower[known:], self.upper[known:])
-        self.sap.update(self.lower, self.upper)
+        self.sap.update(self.lower, self.upper, check=False)  # kernel bounds: finite, lo <= hi
         pairs = self.sap.pairs
         keep = ~(resting[pairs[:, 0]] & resting[pairs[:, 1]])
         self.candidate_pairs = np.ascontiguousarray(pairs[keep])

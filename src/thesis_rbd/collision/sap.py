@@ -27,6 +27,7 @@ __all__ = ["SweepAndPrune"]
 _EMPTY_PAIRS = np.empty((0, 2), dtype=np.int64)
 _EMPTY_PAIRS.flags.writeable = False
 _NO_BOX = np.empty((0, 6), dtype=np.float64)
+_NO_KEYS = np.empty(0, dtype=np.int64)
 _INT64_MAX = int(np.iinfo(np.int64).max)
 
 # Price of a full rebuild in "insertion-sort swaps": one swap costs about as much as COST_SORT
@@ -155,6 +156,8 @@ class SweepAndPrune:
         self._pairs_cache: np.ndarray | None = _EMPTY_PAIRS
         # Overlap checks of the last sort-and-sweep: prices the next fallback decision.
         self._sweep_checks = 0
+        self._budget_for = (-1, -1)
+        self._budget = 0
         # About the last call; `stats` turns them into a dict on demand.
         self._last = (0, False, 0, 0.0, 0, 0)
 
@@ -258,7 +261,7 @@ class SweepAndPrune:
             kernels.update_frame(
                 lower, upper, spare, box, self._val, self._ep, self._other, self._keys,
                 self._flags, self._meta, self._pair_keys, budget, skip_above, check,
-                self._log_keys, self._log_start,
+                self._log_keys, self._log_start, _NO_KEYS,
             )
         )  # fmt: skip
         if status == kernels.BAD_BOUNDS:
@@ -366,9 +369,13 @@ class SweepAndPrune:
         return int(_COST_SORT * sort + _COST_SWEEP * self._sweep_checks + m)
 
     def _swap_budget(self) -> int:
-        if self.strategy == "incremental":
-            return _INT64_MAX
-        return self._rebuild_price(self._ep.shape[1])
+        """Swaps after which a frame is abandoned for a rebuild (cached per object set)."""
+        m = self._ep.shape[1]
+        if self._budget_for != (m, self._sweep_checks):
+            self._budget_for = (m, self._sweep_checks)
+            incremental = self.strategy == "incremental"
+            self._budget = _INT64_MAX if incremental else self._rebuild_price(m)
+        return self._budget
 
     def _set_box(self, box: np.ndarray) -> None:
         """New object set: its bounds table, a spare of the same size, scratch records."""
