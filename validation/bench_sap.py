@@ -11,6 +11,20 @@ overlapping neighbour per box (edge 2 n^(1/3) m, constant density), bouncing off
 i.e. about 4 mm (0.4 % of a box) per frame. "incoherent": every box is redrawn anywhere each
 frame. Targets: coherent 10k at least 3x faster than fcl's manager; coherent 100k <= 20 ms.
 
+The coherent motion is kept as it was, on purpose: about 1 m/s per body (components
+N(0, 0.6 m/s)) at dt = 1/240 is at the slow end of a rigid-body scene, 4.2 mm or 0.4 % of a 1 m
+box per frame; slowing it down would only hide that at constant density every endpoint passes
+~n^(2/3) others per metre, so swaps grow like n^(5/3) (1.8M per frame at 100k).
+
+Measured (2-core machine shared with other jobs; medians of 5-12 frames, +-50 % run to run):
+before (commit f698586) coherent 0.14 / 1.8 / 42-48 ms at 1k / 10k / 100k; after (id-indexed
+bounds table, one kernel call per frame) 0.10 / 1.5-1.6 / 37-39 ms in an interleaved A/B run,
+73-80 ms in a loaded run. Same loaded run, ms per frame ours / fcl / numpy: coherent 1k
+0.14 / 1.35 / 1.18, 10k 5.8 / 30.5 / 128 (5x fcl; 1.5 ms quiet, 7-20x), 100k 80 / 303 / 4680;
+incoherent 1k 1.1 / 9.7 / 5.5, 10k 45 / 835 / 104, 100k 1620 / - / 5900. Slopes: fixed speed
+1.48 (loaded run; 1.33 before), bounded crossings 1.09. Of 100k's ~39 ms the insertion sort is
+~26 ms (14 ns per swap), the gather of new bounds ~6 ms. The <= 20 ms at 100k target is not met.
+
 ``python -m validation.bench_sap FIGURE.png`` times ``SweepAndPrune.update`` against n and
 writes the log-log scaling figure with the fitted slopes.
 """
@@ -361,6 +375,36 @@ def scaling_figure(path, sizes=(1_000, 3_000, 10_000, 30_000, 100_000)) -> dict:
     return {"sizes": sizes.tolist(), "seconds": series, "slopes": slopes}
 
 
+def peer_table(sizes=SIZES, frames: int = 5) -> list[tuple]:
+    """Median ms per frame of ours, fcl's manager and the NumPy sweep, in one run.
+
+    Incoherent fcl at 100k is left out (about a minute per frame). Rows are
+    ``(motion, n, ours, fcl or nan, numpy)``.
+    """
+    rows = []
+    for motion in ("coherent", "incoherent"):
+        for n in sizes:
+            scene = Scene(n, motion, frames=frames)
+            sap = rbd.SweepAndPrune()
+            sap.update(scene.lower[0], scene.upper[0])
+            ours, fcl_t, np_t = [], [], []
+            peer = FclPeer(scene) if _has_fcl() and (motion == "coherent" or n < 100_000) else None
+            for t in range(1, frames + 1):
+                start = time.perf_counter()
+                sap.update(scene.lower[t], scene.upper[t])
+                ours.append(time.perf_counter() - start)
+                start = time.perf_counter()
+                numpy_sort_and_sweep(scene.lower[t], scene.upper[t])
+                np_t.append(time.perf_counter() - start)
+                if peer is not None:
+                    start = time.perf_counter()
+                    peer.frame(scene.centres[t])
+                    fcl_t.append(time.perf_counter() - start)
+            med = [float(np.median(x)) * 1e3 if x else float("nan") for x in (ours, fcl_t, np_t)]
+            rows.append((motion, n, *med))
+    return rows
+
+
 if __name__ == "__main__":
     if len(sys.argv) != 2:
         sys.exit("usage: python -m validation.bench_sap FIGURE.png")
@@ -368,3 +412,6 @@ if __name__ == "__main__":
     for name, slope in result["slopes"].items():
         times = ", ".join(f"{t * 1e3:.3g}" for t in result["seconds"][name])
         print(f"{name}: slope {slope:.2f}; ms per frame at n = {result['sizes']}: {times}")
+    print("motion      n        ours ms   fcl ms    numpy ms  (medians of 5 frames)")
+    for motion, n, ours, fcl_ms, numpy_ms in peer_table():
+        print(f"{motion:<11} {n:<8} {ours:<9.3g} {fcl_ms:<9.3g} {numpy_ms:<9.3g}")
