@@ -93,6 +93,7 @@ def test_static_bodies_never_move_nor_count_in_energy():
         "broad_phase",
         "narrow_phase",
         "contacts",
+        "sleep",
     ]
     world.step(24)
     np.testing.assert_allclose(world.position(floor), [0, 0, -0.5])

@@ -1,8 +1,9 @@
 """Scene files: a world described in TOML, validated with messages that name the fault.
 
-A scene file has optional top-level keys ``description`` and ``seconds`` (the default run
-length), a ``[world]`` table with the arguments of :class:`~thesis_rbd.World`, and one
-``[[body]]`` table per body with the arguments of :meth:`~thesis_rbd.World.add_body`, a
+A scene file has optional top-level keys ``description``, ``seconds`` (the default run
+length) and ``record_contacts`` (whether runs record contact points by default), a
+``[world]`` table with the arguments of :class:`~thesis_rbd.World`, and one ``[[body]]``
+table per body with the arguments of :meth:`~thesis_rbd.World.add_body`, a
 ``shape`` table, and optional ``[[body.force]]`` tables for :meth:`~thesis_rbd.World.apply_force`::
 
     description = "A box pushed for one second"
@@ -137,6 +138,9 @@ class Scene:
         One paragraph; its first line is the scene's summary.
     seconds : float
         Default run length (s).
+    record_contacts : bool
+        Whether runs of this scene record each frame's contacts by default (see
+        :func:`~thesis_rbd.simulate`); false unless the file sets it.
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
@@ -153,6 +157,7 @@ class Scene:
     world: MappingProxyType
     bodies: tuple[BodySpec, ...]
     source: str
+    record_contacts: bool = False
 
     @property
     def summary(self) -> str:
@@ -245,9 +250,10 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from exc
     top = _Context(source, "top level")
-    _check_keys(document, ("description", "seconds", "world", "body"), top)
+    _check_keys(document, ("description", "seconds", "record_contacts", "world", "body"), top)
     description = _optional(document, "description", "", _as_string, top)
     seconds = _optional(document, "seconds", DEFAULT_SECONDS, _positive_number, top)
+    record_contacts = _optional(document, "record_contacts", False, _as_bool, top)
     world = _parse_world(
         _as_table(document.get("world", {}), _Context(source, "top level"), "world"),
         _Context(source, "[world]"),
@@ -275,6 +281,7 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
         world=MappingProxyType(world),
         bodies=tuple(bodies),
         source=source,
+        record_contacts=record_contacts,
     )
 
 

@@ -8,7 +8,14 @@ that its recorded position refers to. A mesh vertex p of body i is at
 
 in the world at frame t (x: ``positions``, q: ``orientations``, c: ``centers_of_mass``).
 
-Saved as one ``.npz`` (no pickles), written atomically: complete or not at all.
+A run may also record its contacts (``simulate(..., record_contacts=True)``): every frame's
+contact points, normals and body pairs, stored flat with per-frame offsets, so that frame t's
+contacts are rows ``contact_offsets[t]:contact_offsets[t + 1]`` of ``contact_points`` (C, 3),
+``contact_normals`` (C, 3) and ``contact_bodies`` (C, 2). A trajectory without them has
+``contact_offsets`` None.
+
+Saved as one ``.npz`` (no pickles), written atomically: complete or not at all. The contact
+arrays are saved only when recorded; files without them load as trajectories without contacts.
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ _ARRAYS = (
     "face_offsets",
     "metadata",
 )
+_CONTACT_ARRAYS = ("contact_points", "contact_normals", "contact_bodies", "contact_offsets")
 
 
 class Trajectory:
@@ -65,6 +73,18 @@ class Trajectory:
         Immovable bodies (drawn in another colour); all False by default.
     metadata : dict, optional
         JSON-serialisable facts about the run (scene, dt, integrator, stages, profile, ...).
+    contacts : dict of array_like, optional
+        Recorded contacts, all four keys or none: ``points`` and ``normals`` (C, 3) (world
+        frame, normals from the second body towards the first), ``bodies`` (C, 2) int body
+        indices [a, b], and ``offsets`` (T + 1,) int, non-decreasing from 0 to C: frame t's
+        contacts are rows ``offsets[t]:offsets[t + 1]``. None: no contacts were recorded.
+
+    Attributes
+    ----------
+    contact_points, contact_normals : (C, 3) float ndarray or None
+    contact_bodies : (C, 2) int64 ndarray or None
+    contact_offsets : (T + 1,) int64 ndarray or None
+        The recorded contacts (see ``contacts``); all None when none were recorded.
 
     Raises
     ------
@@ -82,6 +102,7 @@ class Trajectory:
         centers_of_mass,
         static=None,
         metadata: dict | None = None,
+        contacts: dict | None = None,
     ):
         self.times = np.ascontiguousarray(times, dtype=np.float64)
         self.positions = np.ascontiguousarray(positions, dtype=np.float64)
@@ -112,6 +133,41 @@ class Trajectory:
             raise ValueError(f"trajectory needs one TriangleMesh per body ({n})")
         if T and np.any(np.diff(self.times) < 0):
             raise ValueError("trajectory times must be non-decreasing")
+        self.contact_points = self.contact_normals = None
+        self.contact_bodies = self.contact_offsets = None
+        if contacts is not None:
+            self._set_contacts(contacts)
+
+    def _set_contacts(self, contacts: dict) -> None:
+        """Check and store recorded contacts (see the class docstring)."""
+        keys = {"points", "normals", "bodies", "offsets"}
+        if set(contacts) != keys:
+            raise ValueError(
+                f"trajectory contacts need the keys {sorted(keys)}, got {sorted(contacts)}"
+            )
+        points = np.ascontiguousarray(contacts["points"], dtype=np.float64).reshape(-1, 3)
+        normals = np.ascontiguousarray(contacts["normals"], dtype=np.float64).reshape(-1, 3)
+        bodies = np.ascontiguousarray(contacts["bodies"], dtype=np.int64).reshape(-1, 2)
+        offsets = np.ascontiguousarray(contacts["offsets"], dtype=np.int64)
+        T, count = len(self.times), len(points)
+        if offsets.shape != (T + 1,):
+            raise ValueError(
+                f"trajectory contact offsets must have shape ({T + 1},) for {T} frames, "
+                f"got {offsets.shape}"
+            )
+        if offsets[0] != 0 or offsets[-1] != count or np.any(np.diff(offsets) < 0):
+            raise ValueError(f"trajectory contact offsets must rise from 0 to the {count} contacts")
+        if len(normals) != count or len(bodies) != count:
+            raise ValueError(
+                f"trajectory contacts: {count} points, {len(normals)} normals and "
+                f"{len(bodies)} body pairs; they must agree"
+            )
+        if not (np.all(np.isfinite(points)) and np.all(np.isfinite(normals))):
+            raise ValueError("trajectory contacts hold a non-finite value")
+        if count and (bodies.min() < 0 or bodies.max() >= self.body_count):
+            raise ValueError(f"trajectory contact bodies must be indices below {self.body_count}")
+        self.contact_points, self.contact_normals = points, normals
+        self.contact_bodies, self.contact_offsets = bodies, offsets
 
     # ------------------------------------------------------------------ reading
     def __len__(self) -> int:
@@ -126,6 +182,44 @@ class Trajectory:
     def frame_at(self, time: float) -> int:
         """Index of the last frame recorded at or before ``time`` (clamped to the run)."""
         return int(np.clip(np.searchsorted(self.times, time, side="right") - 1, 0, len(self) - 1))
+
+    @property
+    def has_contacts(self) -> bool:
+        """Whether the run recorded its contacts."""
+        return self.contact_offsets is not None
+
+    def contacts(self, frame: int) -> dict[str, np.ndarray]:
+        """Contacts recorded at ``frame``: the contacts of the step that ended there.
+
+        Returns
+        -------
+        dict
+            ``points``, ``normals`` (c, 3) and ``bodies`` (c, 2) views of the recorded arrays.
+
+        Raises
+        ------
+        ValueError
+            If the run did not record contacts.
+        """
+        if not self.has_contacts:
+            raise ValueError(
+                "this trajectory has no recorded contacts; run simulate(..., record_contacts=True)"
+            )
+        frame = range(len(self))[frame]  # IndexError for a frame outside the run
+        rows = slice(self.contact_offsets[frame], self.contact_offsets[frame + 1])
+        return {
+            "points": self.contact_points[rows],
+            "normals": self.contact_normals[rows],
+            "bodies": self.contact_bodies[rows],
+        }
+
+    def contact_counts(self) -> np.ndarray:
+        """(T,) int64 number of contacts recorded at each frame (needs recorded contacts)."""
+        if not self.has_contacts:
+            raise ValueError(
+                "this trajectory has no recorded contacts; run simulate(..., record_contacts=True)"
+            )
+        return np.diff(self.contact_offsets)
 
     def transforms(self, frame: int) -> np.ndarray:
         """(n, 4, 4) rigid transforms from each body's mesh frame to the world at ``frame``."""
@@ -143,7 +237,8 @@ class Trajectory:
 
     def __repr__(self) -> str:
         span = f"{self.times[0]:g}..{self.times[-1]:g} s" if len(self) else "empty"
-        return f"Trajectory(frames={len(self)}, bodies={self.body_count}, {span})"
+        contacts = f", contacts={len(self.contact_points)}" if self.has_contacts else ""
+        return f"Trajectory(frames={len(self)}, bodies={self.body_count}, {span}{contacts})"
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
@@ -172,6 +267,13 @@ class Trajectory:
             "face_offsets": np.concatenate([[0], np.cumsum(face_counts)]).astype(np.int64),
             "metadata": np.array(json.dumps(self.metadata)),
         }
+        if self.has_contacts:
+            arrays.update(
+                contact_points=self.contact_points,
+                contact_normals=self.contact_normals,
+                contact_bodies=self.contact_bodies,
+                contact_offsets=self.contact_offsets,
+            )
         with atomic_path(path) as temporary, open(temporary, "wb") as file:
             np.savez_compressed(file, **arrays)
 
@@ -206,6 +308,15 @@ class Trajectory:
             )
             for i in range(len(vertex_offsets) - 1)
         ]
+        present = [key for key in _CONTACT_ARRAYS if key in arrays]
+        if present and len(present) != len(_CONTACT_ARRAYS):
+            missing = sorted(set(_CONTACT_ARRAYS) - set(present))
+            raise ValueError(f"{path} has partial contact data (missing {', '.join(missing)})")
+        contacts = (
+            {key.removeprefix("contact_"): arrays[key] for key in _CONTACT_ARRAYS}
+            if present
+            else None
+        )
         return cls(
             arrays["times"],
             arrays["positions"],
@@ -215,6 +326,7 @@ class Trajectory:
             arrays["centers_of_mass"],
             arrays["static"],
             json.loads(str(arrays["metadata"])),
+            contacts,
         )
 
 
@@ -223,6 +335,7 @@ def simulate(
     seconds: float,
     record_every: int = 1,
     progress: Callable[[int, int], None] | None = None,
+    record_contacts: bool = False,
 ) -> Trajectory:
     """Step ``world`` for ``seconds`` of simulated time and record its poses.
 
@@ -237,6 +350,11 @@ def simulate(
         and the last (after the final step) are always recorded.
     progress : callable(steps_done, steps_total), optional
         Called after each recorded frame.
+    record_contacts : bool
+        Also record each frame's contacts (:attr:`World.contacts`: points, normals, body
+        pairs): those of the step that ended at the frame (with ``record_every`` > 1, the
+        contacts of the steps in between are not kept). Frame 0 holds the world's contacts
+        before the run (none for a freshly built world).
 
     Returns
     -------
@@ -268,12 +386,17 @@ def simulate(
     stages = world.stages
     profile_before = {stage: dict(entry) for stage, entry in world.profile.items()}
 
+    contact_frames: list[dict[str, np.ndarray]] = []
     times[0], positions[0], orientations[0] = world.time, world.positions, world.orientations
+    if record_contacts:
+        contact_frames.append(world.contacts)
     for frame in range(1, frames):
         world.step(int(frame_steps[frame] - frame_steps[frame - 1]))
         times[frame] = world.time
         positions[frame] = world.positions
         orientations[frame] = world.orientations
+        if record_contacts:
+            contact_frames.append(world.contacts)
         if progress is not None:
             progress(int(frame_steps[frame]), total_steps)
 
@@ -300,4 +423,18 @@ def simulate(
             "stages": stages,
             "profile": profile,
         },
+        contacts=_stack_contacts(contact_frames) if record_contacts else None,
     )
+
+
+def _stack_contacts(per_frame: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Flatten per-frame ``World.contacts`` dicts into the arrays a Trajectory stores."""
+    counts = [len(contacts["points"]) for contacts in per_frame]
+    return {
+        "points": np.concatenate([c["points"] for c in per_frame]).reshape(-1, 3),
+        "normals": np.concatenate([c["normals"] for c in per_frame]).reshape(-1, 3),
+        "bodies": np.concatenate(
+            [np.stack([c["body_a"], c["body_b"]], axis=1).reshape(-1, 2) for c in per_frame]
+        ).astype(np.int64),
+        "offsets": np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+    }

@@ -282,7 +282,8 @@ class World:
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
             if self.contact_response:
                 pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
-        if dynamic and self._sleep.settings.enabled:
+        if collides and self._sleep.settings.enabled:
+            # bodies come to rest through contact: without collisions nothing would sleep
             pipeline.append(("sleep", self._stage_sleep, self._any_awake))
         self._pipeline = pipeline
         self._stale_plan = False

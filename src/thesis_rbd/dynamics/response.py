@@ -3,15 +3,18 @@
 Given the contacts found at the end of the integration step, in order:
 
 1. velocities: v = P / M and w = I^-1 L for every body, I^-1 = R I_body^-1 R^T;
-2. contact frames: arms from each centre of mass, (n, t1, t2) bases, the combined material
-   (restitution e_a e_b, friction sqrt(mu_a mu_b), DESIGN.md) and the restitution bias
-   e u_n- of every contact approaching faster than ``bounce_threshold``;
+2. contact frames: arms from each centre of mass, (n, t1, t2) bases and the combined
+   material (restitution e_a e_b for contacts approaching faster than
+   ``bounce_threshold``, friction sqrt(mu_a mu_b), DESIGN.md);
 3. islands of bodies joined by contacts (static bodies join nothing);
 4. time of impact (``penetration="toi"``): an island with an impact is stepped back by the
    time its deepest impacting contact has spent inside, t = depth / |u_n|, along its ballistic
    path (exact for constant external force, so a ball bounces to the right height);
 5. the velocity-level contact problem of each island, solved exactly (Lemke) or by projected
-   Gauss-Seidel with warm starts from the previous step's impulses (``contact_solver``);
+   Gauss-Seidel with warm starts from the previous step's impulses (``contact_solver``), as
+   Poisson's two phases: compression (the approach is stopped, friction included), then
+   restitution (each contact gets e times its compression impulse), which unlike Newton's
+   law at simultaneous contacts never adds energy to a frictionless impact;
 6. the stepped-back islands move forward again by the same time with their new velocities;
 7. position projection: the penetration that remains beyond ``slop`` is removed by a
    frictionless normal solve on pseudo-velocities, which moves bodies without adding momentum
@@ -29,6 +32,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.dynamics.contact_solver import (
+    apply_restitution,
     contact_basis,
     relative_velocity,
     solve_exact,
@@ -303,6 +307,20 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         contacts, body_rewind = _step_back_to_impact(
             b, contacts, bodies, acceleration, dt, settings, detector
         )
+        moved = body_rewind > 0
+        if moved.any():
+            # at the time of impact: P from the retraced velocity; L is unchanged (no torque
+            # along a ballistic path) and w follows from it at the retraced orientation
+            b.linear_momentum[moved] = v[moved] / b.inverse_mass[moved, None]
+            v, w, inverse_inertia = body_velocities(
+                n,
+                b.full("orientation"),
+                b.full("linear_momentum"),
+                b.full("angular_momentum"),
+                b.full("inverse_mass"),
+                b.full("inverse_inertia_body"),
+            )
+            bodies = (v, w, b.inverse_mass, inverse_inertia)
 
     _, order, island_start = find_islands(n, contacts["body_a"], contacts["body_b"], b.static)
     # island-sorted copies: each island's contacts are one contiguous slice
@@ -313,7 +331,7 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     friction = np.sqrt(b.friction[body_a] * b.friction[body_b])
     u_before = _normal_velocities(frame, bodies)
     bounces = u_before < -settings.bounce_threshold
-    bias = np.where(bounces, b.restitution[body_a] * b.restitution[body_b] * u_before, 0.0)
+    restitution = np.where(bounces, b.restitution[body_a] * b.restitution[body_b], 0.0)
 
     impulse = cache.lookup(b, contacts, basis)
     lemke_fallbacks = _solve_islands(
@@ -322,18 +340,14 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         settings.friction_sides,
         island_start,
         frame,
-        bias,
+        np.zeros(len(restitution)),
         friction,
         bodies,
         impulse,
     )
+    apply_restitution(frame, bodies, impulse, restitution)
     cache.store(b, contacts, impulse, basis)
 
-    # stepped-back islands travel the rest of the step with their new velocities
-    for t in np.unique(body_rewind[body_rewind > 0]):
-        _move_ballistic(
-            body_rewind == t, t, v, w, acceleration, b.full("position"), b.full("orientation")
-        )
     touched = np.zeros(n, bool)
     touched[body_a] = True
     touched[body_b] = True
@@ -347,6 +361,14 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         b.full("linear_momentum"),
         b.full("angular_momentum"),
     )
+    # stepped-back islands travel the rest of the step with their new velocities: P gains
+    # the external force's impulse, L (about the centre of mass) is kept
+    for t in np.unique(body_rewind[body_rewind > 0]):
+        _move_ballistic(
+            body_rewind == t, t, v, w, acceleration, b.full("position"), b.full("orientation")
+        )
+    moved = body_rewind > 0
+    b.linear_momentum[moved] = v[moved] / b.inverse_mass[moved, None]
     # contacts found at the time of impact are not projected: the bodies have moved on
     depths = np.where(body_rewind[body_a] + body_rewind[body_b] > 0, 0.0, contacts["depths"])
     max_depth = _project_positions(b, frame, depths, island_start, inverse_inertia, settings)

@@ -2,6 +2,8 @@
 
 Each frame draws every body's triangles as a ``Poly3DCollection`` in a fixed 3D view framing
 the whole run; frames are thinned to ``fps`` per simulated second and written by Pillow.
+Recorded contacts (``simulate(..., record_contacts=True)``) are drawn as red dots over the
+bodies.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from thesis_rbd.viz.html import playback_frames
 
 __all__ = ["require_matplotlib", "write_gif"]
 
+_CONTACT_COLOR = "#ff1744"
 _PALETTE = ("#d6603d", "#3d7ed6", "#5caa5a", "#e0aa30", "#9662c4", "#40b2b2", "#cd5c96")
 
 
@@ -86,6 +89,10 @@ def write_gif(
     dpi = 100
     figure = plt.figure(figsize=(size_pixels / dpi, size_pixels / dpi), dpi=dpi)
     axes = figure.add_subplot(projection="3d")
+    if trajectory.has_contacts:
+        # draw in the order added, so the contacts stay over the bodies (the bodies then
+        # overlap one another in body order rather than by depth)
+        axes.computed_zorder = False
     colors = [
         "#969696" if static else _PALETTE[i % len(_PALETTE)]
         for i, static in enumerate(trajectory.static)
@@ -107,7 +114,19 @@ def write_gif(
                                 facecolors=colors[body],
                                 linewidths=0.0,
                                 shade=True,
+                                zorder=1,
                             )
+                        )
+                    if trajectory.has_contacts:
+                        points = trajectory.contacts(int(frame))["points"]
+                        axes.scatter(
+                            points[:, 0],
+                            points[:, 1],
+                            points[:, 2],
+                            color=_CONTACT_COLOR,
+                            s=10,
+                            depthshade=False,
+                            zorder=2,
                         )
                     axes.set_xlim(middle[0] - half, middle[0] + half)
                     axes.set_ylim(middle[1] - half, middle[1] + half)

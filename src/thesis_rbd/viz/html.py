@@ -6,7 +6,9 @@ a time slider and a speed choice. The trajectory is embedded in the page as JSON
 arrays: no network reference, no server, no WebGL, opens from disk in any browser.
 
 Frames are thinned to at most ``fps`` per simulated second (the last frame always kept), and
-poses and vertices are stored as float32, which is far below screen resolution.
+poses and vertices are stored as float32, which is far below screen resolution. A trajectory
+that recorded its contacts carries the contacts of the frames kept; the page draws them as
+dots with a short tick along the normal, over the bodies, with a checkbox to hide them.
 """
 
 from __future__ import annotations
@@ -55,6 +57,17 @@ def _b64(array: np.ndarray, dtype) -> str:
     return base64.b64encode(np.ascontiguousarray(array, dtype=dtype).tobytes()).decode("ascii")
 
 
+def _contact_data(trajectory: Trajectory, frames: np.ndarray) -> dict:
+    """The recorded contacts of ``frames``, flattened with per-frame offsets, as base64."""
+    per_frame = [trajectory.contacts(int(frame)) for frame in frames]
+    counts = [len(contacts["points"]) for contacts in per_frame]
+    return {
+        "points": _b64(np.concatenate([c["points"] for c in per_frame]), "<f4"),
+        "normals": _b64(np.concatenate([c["normals"] for c in per_frame]), "<f4"),
+        "offsets": _b64(np.concatenate([[0], np.cumsum(counts)]), "<u4"),
+    }
+
+
 def render_html(trajectory: Trajectory, title: str | None = None, fps: float = 60.0) -> str:
     """Return the playback page of ``trajectory`` as a string.
 
@@ -97,6 +110,8 @@ def render_html(trajectory: Trajectory, title: str | None = None, fps: float = 6
             )
         ],
     }
+    if trajectory.has_contacts:
+        data["contacts"] = _contact_data(trajectory, frames)
     metadata = trajectory.metadata
     heading = title or metadata.get("scene") or "thesis_rbd trajectory"
     subtitle = (

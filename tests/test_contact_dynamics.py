@@ -1,0 +1,204 @@
+"""Contact dynamics in a World against analytic answers (issue 5's acceptance list)."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import thesis_rbd as rbd
+
+G = 9.81
+DT = 1 / 240
+FLOOR = rbd.shapes.box((4.0, 4.0, 1.0))
+CUBE = rbd.shapes.box((1.0, 1.0, 1.0))
+BALL = rbd.shapes.icosphere(0.5, 3)
+
+
+def floor_world(**options):
+    world = rbd.World(dt=DT, gravity=(0, 0, -G), **options)
+    world.add_body(FLOOR, static=True, position=(0, 0, -0.5), restitution=1.0, friction=0.5)
+    return world
+
+
+def apex_heights(world, body, seconds, rest_height):
+    """Heights above the resting height at each apex of the body's centre."""
+    heights = []
+    for _ in range(round(seconds / DT)):
+        world.step()
+        heights.append(world.position(body)[2] - rest_height)
+    h = np.array(heights)
+    apex = np.flatnonzero((h[1:-1] > h[:-2]) & (h[1:-1] >= h[2:])) + 1
+    return h[apex]
+
+
+@pytest.mark.parametrize("e", [0.5, 0.8, 1.0])
+@pytest.mark.parametrize("shape", ["ball", "cube"])
+def test_bounce_heights_follow_e_squared_without_spin(shape, e):
+    """Dropped from 1 m (lowest point): the first five apex ratios are e^2 within 0.5 %."""
+    world = floor_world()
+    mesh = BALL if shape == "ball" else CUBE
+    body = world.add_body(mesh, mass=1.0, position=(0, 0, 1.5), restitution=e)
+    heights = np.concatenate([[1.0], apex_heights(world, body, 5.0, 0.5)])
+    ratios = heights[1:6] / heights[:5]
+    assert len(ratios) == 5
+    np.testing.assert_allclose(ratios, e * e, rtol=5e-3)
+    assert np.abs(world.angular_velocity(body)).max() < 1e-3
+
+
+def test_elastic_ball_never_gains_energy_over_20_seconds():
+    world = floor_world()
+    world.add_body(BALL, mass=1.0, position=(0, 0, 1.5), restitution=1.0)
+    energy0 = world.kinetic_energy() + world.potential_energy()
+    worst = 0.0
+    for _ in range(round(20 / DT)):
+        world.step()
+        worst = max(worst, world.kinetic_energy() + world.potential_energy() - energy0)
+    assert worst <= 1e-3 * energy0
+
+
+@pytest.mark.parametrize("mesh", [BALL, CUBE], ids=["ball", "cube"])
+def test_inelastic_body_comes_to_rest_barely_penetrating(mesh):
+    world = floor_world()
+    body = world.add_body(mesh, mass=1.0, position=(0, 0, 1.5), restitution=0.0)
+    world.step(round(2 / DT))
+    assert np.linalg.norm(world.linear_velocity(body)) < 1e-3
+    assert world.position(body)[2] >= 0.5 - 1e-3  # penetration <= 1 mm
+    assert world.sleeping[body]
+
+
+def test_equal_cubes_head_on_exchange_velocities():
+    world = rbd.World(dt=DT)
+    a = world.add_body(
+        CUBE, mass=1.0, position=(-1, 0, 0), linear_velocity=(2, 0, 0), restitution=1
+    )
+    b = world.add_body(
+        CUBE, mass=1.0, position=(1, 0, 0), linear_velocity=(-2, 0, 0), restitution=1
+    )
+    world.step(120)
+    np.testing.assert_allclose(world.linear_velocity(a), [-2, 0, 0], atol=1e-6)
+    np.testing.assert_allclose(world.linear_velocity(b), [2, 0, 0], atol=1e-6)
+    assert np.abs(world.angular_velocity(a)).max() < 1e-6
+    assert np.abs(world.angular_velocity(b)).max() < 1e-6
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.6])
+def test_an_impact_between_free_bodies_conserves_momentum(friction):
+    """A tumbling plate hits a spinning ball in free space: P to 1e-9, L about 0 to 1e-6."""
+    world = rbd.World(dt=DT)
+    q = Rotation.from_euler("xyz", [0.3, 0.8, -0.4]).as_quat()
+    a = world.add_body(
+        rbd.shapes.box((1, 2, 0.5)), mass=2.0, position=(-1.5, 0.1, 0), orientation=q,
+        linear_velocity=(3, 0, 0.2), angular_velocity=(1, 2, 3), restitution=0.5,
+        friction=friction,
+    )  # fmt: skip
+    b = world.add_body(
+        rbd.shapes.icosphere(0.7, 2), mass=1.0, position=(1.5, 0, 0.2),
+        linear_velocity=(-2, 0.3, 0), angular_velocity=(-1, 0, 2), restitution=0.5,
+        friction=friction,
+    )  # fmt: skip
+
+    def momenta():
+        P = world.linear_momentum(a) + world.linear_momentum(b)
+        L = sum(
+            np.cross(world.position(i), world.linear_momentum(i)) + world.angular_momentum(i)
+            for i in (a, b)
+        )
+        return P, L
+
+    P0, L0 = momenta()
+    touched = False
+    for _ in range(240):
+        world.step()
+        touched |= len(world.contacts["depths"]) > 0
+    assert touched
+    P1, L1 = momenta()
+    assert np.abs(P1 - P0).max() <= 1e-9 * np.abs(P0).max()
+    assert np.abs(L1 - L0).max() <= 1e-6 * np.abs(L0).max()
+
+
+def test_ten_cube_stack_settles_and_stays():
+    world = floor_world()
+    cubes = [
+        world.add_body(CUBE, mass=1.0, position=(0, 0, 0.5 + i), friction=0.5) for i in range(10)
+    ]
+    top = cubes[-1]
+    start = world.position(top)
+    deepest = 0.0
+    for step in range(round(10 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        if step == round(1 / DT):
+            speeds = [np.linalg.norm(world.linear_velocity(c)) for c in cubes]
+            assert max(speeds) < 0.01
+    assert np.linalg.norm(world.position(top) - start) < 1e-3
+    assert deepest <= 1e-3
+
+
+def test_sliding_cube_stops_at_the_coulomb_distance():
+    mu, speed = 0.4, 3.0
+    world = rbd.World(dt=DT, gravity=(0, 0, -G))
+    world.add_body(rbd.shapes.box((20, 4, 1)), static=True, position=(0, 0, -0.5), friction=mu)
+    cube = world.add_body(CUBE, mass=1.0, position=(-8, 0, 0.5), friction=mu)
+    world.step(10)  # settle onto the floor before the push
+    world.bodies.linear_momentum[cube] = (speed, 0, 0)
+    x0 = world.position(cube)[0]
+    world.step(round(2 / DT))
+    assert np.linalg.norm(world.linear_velocity(cube)) < 1e-6
+    expected = speed**2 / (2 * mu * G)
+    assert world.position(cube)[0] - x0 == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.parametrize("degrees", [15.0, 30.0])
+def test_cube_on_an_incline_holds_or_slides(degrees):
+    mu = 0.4
+    angle = np.radians(degrees)
+    tilt = Rotation.from_euler("y", -angle)
+    world = rbd.World(dt=DT, gravity=(0, 0, -G))
+    world.add_body(rbd.shapes.box((20, 4, 1)), static=True, orientation=tilt.as_quat(), friction=mu)
+    up = tilt.apply([0, 0, 1])
+    downhill = -tilt.apply([1, 0, 0])
+    cube = world.add_body(
+        CUBE, mass=1.0, orientation=tilt.as_quat(), position=up * 1.0, friction=mu, restitution=0
+    )
+    world.step(60)
+    v0 = world.linear_velocity(cube) @ downhill
+    world.step(120)
+    acceleration = (world.linear_velocity(cube) @ downhill - v0) / (120 * DT)
+    if np.tan(angle) < mu:
+        assert abs(world.linear_velocity(cube) @ downhill) < 1e-3
+    else:
+        expected = G * (np.sin(angle) - mu * np.cos(angle))
+        assert acceleration == pytest.approx(expected, rel=0.01)
+
+
+def test_fast_small_sphere_does_not_tunnel_through_a_thin_plate():
+    world = rbd.World(dt=DT)
+    world.add_body(rbd.shapes.box((1, 1, 0.02)), static=True)
+    sphere = world.add_body(
+        rbd.shapes.icosphere(0.05, 2), mass=0.1, position=(0, 0, 0.5), linear_velocity=(0, 0, -40)
+    )
+    world.step(60)
+    assert world.position(sphere)[2] > 0.0
+
+
+def test_sleeping_wakes_on_touch_and_on_force():
+    world = floor_world()
+    resting = world.add_body(CUBE, mass=1.0, position=(0, 0, 0.5))
+    world.step(round(1 / DT))
+    assert world.sleeping[resting]
+    integrate_calls = world.profile["integrate"]["calls"]
+    world.step(10)
+    assert world.profile["integrate"]["calls"] == integrate_calls  # nothing awake: skipped
+    world.apply_force(resting, (0, 0, 30.0), duration=0.1)
+    assert not world.sleeping[resting]
+    world.step(5)
+    assert world.position(resting)[2] > 0.5
+    # a falling box wakes a sleeping one it lands on
+    world.step(round(2 / DT))
+    assert world.sleeping[resting]
+    dropped = world.add_body(CUBE, mass=1.0, position=(0, 0, 3.0))
+    for _ in range(round(1 / DT)):
+        world.step()
+        if len(world.contacts["depths"]) and not world.sleeping[resting]:
+            break
+    assert not world.sleeping[resting]
+    del dropped
