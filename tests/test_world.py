@@ -92,6 +92,7 @@ def test_static_bodies_never_move_nor_count_in_energy():
         "bounds",
         "broad_phase",
         "narrow_phase",
+        "tunnelling",
         "contacts",
         "sleep",
     ]

@@ -3,14 +3,16 @@
 A step runs only the stages the scene calls for (``World.stages``), each timed into
 ``World.profile``:
 
-    forces -> integrate -> bounds -> broad_phase -> narrow_phase -> contacts
+    forces -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling -> contacts
+           -> sleep
 
 The plan is derived from the scene and refreshed whenever bodies or forces change: no gravity
 or applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
 collision stages; no contact response wanted (a detection-only scene), no contacts stage. Two
 stages are also skipped step by step when they have nothing to do: the narrow phase when the
-broad phase found no candidate pair, the contact response when there is no contact; a skipped
-stage is not called and costs nothing.
+broad phase found no candidate pair, the tunnelling check when no body moved further than its
+own size, the contact response when there is no contact, everything but the forces when all
+bodies sleep; a skipped stage is not called and costs nothing.
 """
 
 from __future__ import annotations
@@ -45,7 +47,16 @@ __all__ = ["STAGE_NAMES", "World"]
 
 # Every stage a world can run, in pipeline order; ``World.profile`` has an entry for each so
 # that a skipped stage shows zero calls.
-STAGE_NAMES = ("forces", "integrate", "bounds", "broad_phase", "narrow_phase", "contacts", "sleep")
+STAGE_NAMES = (
+    "forces",
+    "integrate",
+    "bounds",
+    "broad_phase",
+    "narrow_phase",
+    "tunnelling",
+    "contacts",
+    "sleep",
+)
 
 
 class World:
@@ -280,12 +291,17 @@ class World:
             pipeline.append(("bounds", self._stage_bounds, self._any_awake))
             pipeline.append(("broad_phase", self._stage_broad_phase, self._any_awake))
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
+            pipeline.append(("tunnelling", self._stage_tunnelling, self._has_fast_bodies))
             if self.contact_response:
                 pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
         if collides and self._sleep.settings.enabled:
             # bodies come to rest through contact: without collisions nothing would sleep
             pipeline.append(("sleep", self._stage_sleep, self._any_awake))
         self._pipeline = pipeline
+        self._collision_planned = collides
+        self._fast = np.zeros(b.count, bool)
+        self._start_position = b.position.copy()
+        self._start_orientation = b.orientation.copy()
         self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
@@ -334,6 +350,10 @@ class World:
         """Advance free motion of every dynamic body by one step."""
         b = self.bodies
         pf = self._point_forces
+        if self._collision_planned:
+            # where the step started: fast bodies are swept from here (no tunnelling)
+            self._start_position = b.position.copy()
+            self._start_orientation = b.orientation.copy()
         integrate_bodies(
             INTEGRATORS[self.integrator],
             self.dt,
@@ -353,8 +373,24 @@ class World:
         )
 
     def _stage_bounds(self) -> None:
-        """World AABB of every body."""
-        self._collision.bounds(self.bodies, np.zeros(self.bodies.count))
+        """World AABB of every body; a fast body's box covers its whole step."""
+        b = self.bodies
+        travel = np.linalg.norm(b.position - self._start_position, axis=1)
+        # "further in one step than its own size" (size = bounding radius about the centre)
+        self._fast = travel > b.size
+        swept = None
+        if self._fast.any():
+            swept = (self._fast, self._start_position, self._start_orientation)
+        self._collision.bounds(b, np.zeros(b.count), swept_from=swept)
+
+    def _has_fast_bodies(self) -> bool:
+        return self._any_awake() and bool(self._fast.any())
+
+    def _stage_tunnelling(self) -> None:
+        """Time-of-impact sampling for fast bodies only: put back what passed through."""
+        self._collision.sweep(
+            self.bodies, self._fast, self._start_position, self._start_orientation
+        )
 
     def _stage_broad_phase(self) -> None:
         """Sweep-and-prune: candidate pairs with at least one moving body."""
