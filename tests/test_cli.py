@@ -120,7 +120,7 @@ def test_bad_scene_exits_nonzero_with_one_message_and_no_output(tmp_path, fault)
 @pytest.mark.parametrize(
     ("arguments", "expected"),
     [
-        (["nonesuch"], "no scene file or built-in scene named 'nonesuch'; built-ins: dzhanibekov"),
+        (["nonesuch"], "no scene file or built-in scene named 'nonesuch'; built-ins: bouncing_"),
         (["missing.toml"], "scene file not found: missing.toml"),
         (["--seconds", "0"], "--seconds must be a positive number"),
         (["--dt", "-1"], "--dt must be a positive number"),
@@ -137,6 +137,51 @@ def test_bad_options_exit_nonzero_without_output(tmp_path, arguments, expected):
     assert expected in result.output
     assert "Traceback" not in result.output
     assert files_in(tmp_path) == []
+
+
+def test_contacts_are_recorded_on_request_and_by_the_tori_demo(tmp_path):
+    out, page = tmp_path / "run.npz", tmp_path / "play.html"
+    asked = invoke("run", "bouncing_ball", "-s", 0.6, "--contacts", "-o", out, "--html", page)
+    assert asked.exit_code == 0, asked.output
+    trajectory = rbd.Trajectory.load(out)
+    assert trajectory.has_contacts and trajectory.contact_counts().max() > 0
+    assert f"({len(trajectory)} frames, {len(trajectory.contact_points)} contacts)" in asked.output
+    assert '"contacts":' in page.read_text()
+    plain = invoke("run", "bouncing_ball", "-s", 0.1, "-o", out)
+    assert plain.exit_code == 0 and not rbd.Trajectory.load(out).has_contacts
+    # the tori demo records its contacts by default; --no-contacts turns that off
+    tori = invoke("run", "tori_demo", "-s", 0.1, "-o", out)
+    assert tori.exit_code == 0 and rbd.Trajectory.load(out).has_contacts
+    quiet = invoke("run", "tori_demo", "-s", 0.1, "--no-contacts", "-o", out)
+    assert quiet.exit_code == 0 and not rbd.Trajectory.load(out).has_contacts
+
+
+def test_validate_passes_its_arguments_to_the_campaign():
+    listing = invoke("validate", "--list")
+    assert listing.exit_code == 0, listing.output
+    from validation.studies import STUDIES
+
+    assert listing.output.splitlines()[0].startswith(next(iter(STUDIES)) + ": ")
+    assert len(listing.output.strip().splitlines()) == len(STUDIES)
+    unknown = invoke("validate", "--only", "no_such_study")
+    assert unknown.exit_code == 2 and "unknown study no_such_study" in unknown.output
+    usage = invoke("validate", "--help")
+    assert usage.exit_code == 0 and "--quick" in usage.output and "--tiny" in usage.output
+
+
+def test_validate_without_a_source_checkout_says_so(monkeypatch):
+    import thesis_rbd.cli
+
+    # as installed from a wheel: no validation/ beside the package, none importable
+    monkeypatch.setattr(thesis_rbd.cli, "__file__", "/nowhere/site-packages/thesis_rbd/cli.py")
+    for name in [name for name in sys.modules if name.split(".")[0] == "validation"]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if not Path(p, "validation").is_dir()])
+    result = invoke("validate", "--quick")
+    assert result.exit_code == 1
+    assert result.output.startswith("thesis-rbd: error: thesis-rbd validate needs a source")
+    assert "checkout" in result.output and "pip install -e" in result.output
+    assert "Traceback" not in result.output
 
 
 def test_outputs_are_all_or_nothing(tmp_path, monkeypatch):

@@ -78,7 +78,22 @@ def test_page_renders_frames_in_headless_chromium(trajectory, tmp_path):
     browser = find_chromium()
     if browser is None:
         pytest.skip("headless Chromium not found: apt-get install chromium to run this check")
-    page = write_html(trajectory, tmp_path / "play.html")
+    report, dom = chromium_self_test(browser, write_html(trajectory, tmp_path / "play.html"))
+    assert report["bodies"] == 2 and report["frames"] == len(playback_frames(trajectory.times, 60))
+    images = report["images"]
+    assert [image["frame"] for image in images] == [0, report["frames"] // 2, report["frames"] - 1]
+    for image in images:
+        assert image["painted"] > 2000, image  # the boxes cover thousands of pixels
+    # the pushed box moves and turns: the first and last images differ
+    assert images[0]["checksum"] != images[-1]["checksum"]
+    # the playback loop kept drawing after the self-test (4 = first frame + 3 self-test draws)
+    rendered = int(re.search(r'data-frames-rendered="(\d+)"', dom).group(1))
+    assert rendered > 4
+
+
+def chromium_self_test(browser, page):
+    """Open ``page`` with ``#selftest`` in headless Chromium; return its report and the DOM."""
+    profile = page.parent / "profile"
     result = subprocess.run(
         [
             browser,
@@ -89,7 +104,7 @@ def test_page_renders_frames_in_headless_chromium(trajectory, tmp_path):
             "--disable-component-update",
             "--disable-sync",
             "--no-first-run",
-            f"--user-data-dir={tmp_path / 'profile'}",
+            f"--user-data-dir={profile}",
             "--window-size=800,600",
             "--virtual-time-budget=3000",
             "--dump-dom",
@@ -102,17 +117,7 @@ def test_page_renders_frames_in_headless_chromium(trajectory, tmp_path):
     dom = result.stdout
     match = re.search(r'<pre id="selftest-result">(.*?)</pre>', dom)
     assert match, f"no self-test report in the DOM; stderr: {result.stderr[-2000:]}"
-    report = json.loads(match.group(1))
-    assert report["bodies"] == 2 and report["frames"] == len(playback_frames(trajectory.times, 60))
-    images = report["images"]
-    assert [image["frame"] for image in images] == [0, report["frames"] // 2, report["frames"] - 1]
-    for image in images:
-        assert image["painted"] > 2000, image  # the boxes cover thousands of pixels
-    # the pushed box moves and turns: the first and last images differ
-    assert images[0]["checksum"] != images[-1]["checksum"]
-    # the playback loop kept drawing after the self-test (4 = first frame + 3 self-test draws)
-    rendered = int(re.search(r'data-frames-rendered="(\d+)"', dom).group(1))
-    assert rendered > 4
+    return json.loads(match.group(1)), dom
 
 
 def test_gif_has_one_image_per_frame(trajectory, tmp_path):
@@ -133,3 +138,73 @@ def test_gif_has_one_image_per_frame(trajectory, tmp_path):
     with Image.open(path) as image:
         assert image.format == "GIF" and image.size == (200, 200)
         assert image.n_frames == len(playback_frames(short.times, 10)) == 6
+
+
+# ---------------------------------------------------------------------- recorded contacts
+@pytest.fixture(scope="module")
+def tori_run():
+    """The tori demo from x = -0.5 to -0.3: B cuts through A, with contacts every frame."""
+    scene = rbd.scenes.get("tori_demo")
+    world = scene.build()
+    world.step(150)  # 2.5 s at 1/60 s: B's centre at x = -0.5
+    run = rbd.simulate(world, 0.2, record_contacts=True)
+    run.metadata.update(scene=scene.name)
+    return run
+
+
+def test_page_embeds_the_contacts_of_the_frames_it_keeps(tori_run):
+    data = embedded_data(render_html(tori_run, fps=30))
+    frames = playback_frames(tori_run.times, 30)
+    offsets = np.frombuffer(base64.b64decode(data["contacts"]["offsets"]), "<u4")
+    points = np.frombuffer(base64.b64decode(data["contacts"]["points"]), "<f4").reshape(-1, 3)
+    normals = np.frombuffer(base64.b64decode(data["contacts"]["normals"]), "<f4").reshape(-1, 3)
+    assert len(offsets) == len(frames) + 1 and offsets[-1] == len(points) == len(normals)
+    for k, frame in enumerate(frames):
+        recorded = tori_run.contacts(int(frame))
+        assert len(recorded["points"]) > 0
+        rows = slice(offsets[k], offsets[k + 1])
+        np.testing.assert_allclose(points[rows], recorded["points"], atol=1e-6)
+        np.testing.assert_allclose(normals[rows], recorded["normals"], atol=1e-6)
+
+
+def test_page_without_contacts_has_no_contact_data(trajectory):
+    assert "contacts" not in embedded_data(render_html(trajectory))
+
+
+def test_page_draws_the_contacts_in_headless_chromium(tori_run, tmp_path):
+    browser = find_chromium()
+    if browser is None:
+        pytest.skip("headless Chromium not found: apt-get install chromium to run this check")
+    report, _ = chromium_self_test(browser, write_html(tori_run, tmp_path / "play.html"))
+    images = report["images"]
+    assert len(images) == 4  # first, middle, last and the frame with the most contacts
+    busiest = images[-1]
+    assert busiest["contacts"] == tori_run.contact_counts().max() > 0
+    # every contact lies in front of the camera, so every one is drawn
+    assert all(image["contactsDrawn"] == image["contacts"] > 0 for image in images)
+
+
+def test_gif_draws_the_contacts(tori_run, tmp_path):
+    pytest.importorskip("matplotlib")
+    from PIL import Image
+
+    from thesis_rbd.viz.gif import write_gif
+
+    with_dots = write_gif(tori_run, tmp_path / "dots.gif", fps=10, size_pixels=160)
+    without = rbd.Trajectory(
+        tori_run.times,
+        tori_run.positions,
+        tori_run.orientations,
+        tori_run.names,
+        tori_run.meshes,
+        tori_run.centers_of_mass,
+        tori_run.static,
+    )
+    plain = write_gif(without, tmp_path / "plain.gif", fps=10, size_pixels=160)
+
+    def red_pixels(path):
+        with Image.open(path) as image:
+            rgb = np.asarray(image.convert("RGB")).astype(int)
+        return int(np.sum((rgb[..., 0] > 200) & (rgb[..., 1] < 80) & (rgb[..., 2] < 120)))
+
+    assert red_pixels(with_dots) > red_pixels(plain) + 5

@@ -146,7 +146,9 @@ def test_defaults_are_the_world_defaults(tmp_path):
     reference = rbd.World()
     assert world.dt == reference.dt and world.integrator == reference.integrator
     np.testing.assert_array_equal(world.gravity, [0, 0, 0])
-    assert world.stages == ["integrate"]
+    # no gravity, no force, one body: it only moves freely (a "sleep" stage may follow)
+    assert world.stages[0] == "integrate" and "forces" not in world.stages
+    assert "broad_phase" not in world.stages and not scene.record_contacts
     np.testing.assert_array_equal(world.orientation(0), [0, 0, 0, 1])
 
 
@@ -178,7 +180,7 @@ def test_builtins_are_listed_and_load():
         scene = rbd.scenes.get(name)
         assert scene.name == name and scene.summary and scene.seconds > 0
         assert len(scene.build()) >= 1
-    with pytest.raises(SceneError, match="no built-in scene 'nope'; built-ins: dzhanibekov"):
+    with pytest.raises(SceneError, match="no built-in scene 'nope'; built-ins: bouncing_ball, "):
         rbd.scenes.get("nope")
 
 
@@ -349,3 +351,71 @@ def test_unreadable_mesh_file_is_named(tmp_path):
 def test_missing_scene_file_is_named(tmp_path):
     with pytest.raises(SceneError, match=r"scene file not found: .*absent\.toml"):
         rbd.load_scene(tmp_path / "absent.toml")
+
+
+def test_record_contacts_is_read_and_checked(tmp_path):
+    body = '[[body]]\nshape = { type = "box" }\n'
+    assert not rbd.load_scene(write_scene(tmp_path, body)).record_contacts
+    assert rbd.load_scene(write_scene(tmp_path, "record_contacts = true\n" + body)).record_contacts
+    with pytest.raises(SceneError, match="field 'record_contacts': must be true or false"):
+        rbd.load_scene(write_scene(tmp_path, "record_contacts = 1\n" + body))
+
+
+# ---------------------------------------------------------------------- collision built-ins
+COLLISION_BUILTINS = (
+    "bouncing_ball", "box_landing", "stack", "pyramid", "dominoes", "rain", "tori_demo"
+)  # fmt: skip
+
+
+def test_collision_builtins_are_shipped():
+    assert set(COLLISION_BUILTINS) <= set(rbd.scenes.names())
+    for name in COLLISION_BUILTINS:
+        world = rbd.scenes.get(name).build()
+        assert {"broad_phase", "narrow_phase"} <= set(world.stages), name
+
+
+def test_bouncing_ball_apex_is_e_squared_of_the_drop():
+    scene = rbd.scenes.get("bouncing_ball")
+    world = scene.build()
+    ball = world.names.index("ball")
+    assert len(world.bodies.meshes[ball].faces) == 1280  # icosphere, 3 subdivisions
+    trajectory = rbd.simulate(world, 1.5)
+    lowest = trajectory.positions[:, ball, 2] - 0.5  # the ball's lowest point above the floor
+    assert lowest[0] == pytest.approx(1.0)
+    after_bounce = lowest[trajectory.times > 0.5]
+    assert after_bounce.max() == pytest.approx(0.8**2, abs=0.02)
+
+
+def test_box_lands_flat_and_rests_on_its_face():
+    trajectory = rbd.simulate(rbd.scenes.get("box_landing").build(), 2.5)
+    cube = trajectory.names.index("cube")
+    # it bounces, comes down on its bottom face again and rests there, not on an edge
+    assert trajectory.positions[-1, cube, 2] == pytest.approx(0.5, abs=0.01)
+    turned = Rotation.from_quat(trajectory.orientations[:, cube]).magnitude()
+    assert turned.max() < 0.1
+
+
+def test_every_domino_falls():
+    trajectory = rbd.simulate(rbd.scenes.get("dominoes").build(), 4.0, record_every=24)
+    dominoes = [i for i, name in enumerate(trajectory.names) if name.startswith("domino")]
+    assert len(dominoes) == 10
+    # standing, a domino's centre is 1 m up; toppled against the next or flat, below 0.5 m
+    assert np.all(trajectory.positions[-1, dominoes, 2] < 0.5)
+
+
+def test_tori_demo_detects_without_responding():
+    scene = rbd.scenes.get("tori_demo")
+    assert scene.record_contacts and scene.world["contact_response"] is False
+    world = scene.build()
+    assert "contacts" not in world.stages  # detection only
+    b = world.names.index("torus_b")
+    assert len(world.bodies.meshes[b].faces) == 5000
+    trajectory = rbd.simulate(world, 3.0, record_every=6, record_contacts=True)
+    # B slides on its set path (constant velocity and spin), unperturbed by A
+    np.testing.assert_allclose(trajectory.positions[:, b, 0], -3.0 + trajectory.times, atol=1e-9)
+    np.testing.assert_allclose(world.linear_velocity(b), [1, 0, 0], atol=1e-12)
+    counts = trajectory.contact_counts()
+    x = trajectory.positions[:, b, 0]
+    assert np.all(counts[x < -2.7] == 0)  # apart at the start
+    assert np.all(counts[(x > -1.2) & (x < -0.8)] == 0)  # chain-linked but apart
+    assert np.all(counts[(x > -0.4) & (x < 0.01)] > 0)  # cutting through A

@@ -146,3 +146,90 @@ def test_constructor_checks_shapes():
         Trajectory([1, 0], np.zeros((2, 1, 3)), np.ones((2, 1, 4)), ["a"], [mesh], [[0, 0, 0]])
     with pytest.raises(ValueError, match="one TriangleMesh per body"):
         Trajectory([0], np.zeros((1, 1, 3)), np.ones((1, 1, 4)), ["a"], [], [[0, 0, 0]])
+
+
+# ---------------------------------------------------------------------- recorded contacts
+def falling_ball_world():
+    """A ball dropped 0.2 m onto a static floor: contacts from about 0.2 s on."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    world.add_body(rbd.shapes.box((4, 4, 1)), static=True, position=(0, 0, -0.5), name="floor")
+    world.add_body(rbd.shapes.icosphere(0.5, 2), mass=1.0, position=(0, 0, 0.7), name="ball")
+    return world
+
+
+def test_recorded_contacts_are_each_frames_world_contacts():
+    world = falling_ball_world()
+    trajectory = rbd.simulate(falling_ball_world(), 0.5, record_every=2, record_contacts=True)
+    assert trajectory.has_contacts
+    assert trajectory.contact_offsets.shape == (len(trajectory) + 1,)
+    counts = trajectory.contact_counts()
+    assert counts[0] == 0 and counts.sum() == len(trajectory.contact_points) > 0
+    # frame f holds the contacts of the step that ended at it, as World.contacts gave them
+    for frame in range(1, len(trajectory)):
+        world.step(round((trajectory.times[frame] - trajectory.times[frame - 1]) / world.dt))
+        expected, recorded = world.contacts, trajectory.contacts(frame)
+        np.testing.assert_array_equal(recorded["points"], expected["points"])
+        np.testing.assert_array_equal(recorded["normals"], expected["normals"])
+        np.testing.assert_array_equal(recorded["bodies"][:, 0], expected["body_a"])
+        np.testing.assert_array_equal(recorded["bodies"][:, 1], expected["body_b"])
+    # the ball rests on the floor's top face; normals point between the floor and the ball
+    last = trajectory.contacts(-1)
+    assert len(last["points"]) > 0
+    np.testing.assert_allclose(last["points"][:, 2], 0.0, atol=0.01)
+    np.testing.assert_allclose(np.abs(last["normals"][:, 2]), 1.0, atol=1e-6)
+
+
+def test_contacts_are_not_recorded_unless_asked():
+    trajectory = rbd.simulate(falling_ball_world(), 0.05)
+    assert not trajectory.has_contacts and trajectory.contact_points is None
+    with pytest.raises(ValueError, match="no recorded contacts; run simulate"):
+        trajectory.contacts(0)
+
+
+def test_contacts_round_trip_through_the_file(tmp_path):
+    trajectory = rbd.simulate(falling_ball_world(), 0.4, record_contacts=True)
+    path = tmp_path / "run.npz"
+    trajectory.save(path)
+    loaded = Trajectory.load(path)
+    for field in ("contact_points", "contact_normals", "contact_bodies", "contact_offsets"):
+        np.testing.assert_array_equal(getattr(loaded, field), getattr(trajectory, field))
+    assert "contacts=" in repr(loaded)
+    # without contacts the file has no contact arrays and loads without them
+    rbd.simulate(falling_ball_world(), 0.05).save(path)
+    with np.load(path) as data:
+        assert not any(key.startswith("contact_") for key in data.files)
+    assert not Trajectory.load(path).has_contacts
+
+
+def test_partial_contact_data_is_refused(tmp_path):
+    trajectory = rbd.simulate(falling_ball_world(), 0.3, record_contacts=True)
+    path = tmp_path / "run.npz"
+    trajectory.save(path)
+    with np.load(path) as data:
+        arrays = {key: data[key] for key in data.files if key != "contact_normals"}
+    np.savez(path, **arrays)
+    with pytest.raises(ValueError, match=r"partial contact data .*missing contact_normals"):
+        Trajectory.load(path)
+
+
+def test_constructor_checks_contacts():
+    mesh = rbd.shapes.box()
+    frames = ([0, 1], np.zeros((2, 1, 3)), np.ones((2, 1, 4)), ["a"], [mesh], [[0, 0, 0]])
+    good = {
+        "points": np.zeros((2, 3)),
+        "normals": np.zeros((2, 3)),
+        "bodies": np.zeros((2, 2), dtype=int),
+        "offsets": [0, 0, 2],
+    }
+    assert Trajectory(*frames, contacts=good).contact_counts().tolist() == [0, 2]
+    faults = {
+        "need the keys": {"points": good["points"]},
+        r"offsets must have shape \(3,\)": {**good, "offsets": [0, 2]},
+        "must rise from 0 to the 2 contacts": {**good, "offsets": [0, 2, 1]},
+        "they must agree": {**good, "normals": np.zeros((1, 3))},
+        "indices below 1": {**good, "bodies": [[0, 1], [0, 0]]},
+        "non-finite": {**good, "points": [[0, 0, np.nan], [0, 0, 0]]},
+    }
+    for message, contacts in faults.items():
+        with pytest.raises(ValueError, match=message):
+            Trajectory(*frames, contacts=contacts)
