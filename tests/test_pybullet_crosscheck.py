@@ -1,0 +1,53 @@
+"""Restitution and energy of a bouncing ball: ours against pybullet, in the same test.
+
+pybullet is set up as its issue #3094 advises (validation/pybullet_contact.py). Ours must be
+at least as close to e^2 per bounce, and to constant energy with e = 1, as pybullet is.
+"""
+
+import numpy as np
+import pytest
+
+import thesis_rbd as rbd
+
+pytest.importorskip("pybullet", reason="pybullet is needed for the cross-check")
+from validation.pybullet_contact import bounce_heights
+
+DT = 1 / 240
+
+
+def our_bounce(e, seconds):
+    world = rbd.World(dt=DT, gravity=(0, 0, -9.81))
+    world.add_body(rbd.shapes.box((4, 4, 1)), static=True, position=(0, 0, -0.5), restitution=1)
+    ball = world.add_body(
+        rbd.shapes.icosphere(0.5, 3), mass=1.0, position=(0, 0, 1.5), restitution=e
+    )
+    heights, energies = [], []
+    for _ in range(round(seconds / DT)):
+        world.step()
+        heights.append(world.position(ball)[2] - 0.5)
+        energies.append(world.kinetic_energy() + world.potential_energy())
+    h = np.array(heights)
+    apex = np.flatnonzero((h[1:-1] > h[:-2]) & (h[1:-1] >= h[2:])) + 1
+    return h[apex], np.array(energies)
+
+
+@pytest.mark.parametrize("e", [0.5, 0.8])
+def test_bounce_ratios_at_least_as_close_to_e_squared_as_pybullet(e):
+    ours, _ = our_bounce(e, 5.0)
+    theirs, _ = bounce_heights(e, DT, 5.0)
+
+    def error(apexes):
+        heights = np.concatenate([[1.0], apexes])
+        return np.abs(heights[1:6] / heights[:5] / e**2 - 1).max()
+
+    assert error(ours) <= error(theirs)
+    assert error(ours) < 5e-3
+
+
+def test_elastic_energy_at_least_as_constant_as_pybullet():
+    _, ours = our_bounce(1.0, 20.0)
+    _, theirs = bounce_heights(1.0, DT, 20.0)
+    # both start from rest at 1 m above the floor: E0 = m g (1 + r)
+    e0 = 9.81 * 1.5
+    assert np.abs(ours - e0).max() <= np.abs(theirs - e0).max()
+    assert np.abs(ours - e0).max() <= 1e-3 * e0

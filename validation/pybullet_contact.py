@@ -1,0 +1,122 @@
+"""pybullet peers for contact scenes: a bouncing ball and a grid of falling cubes.
+
+pybullet is configured as its issue #3094 advises for faithful restitution: contact
+processing threshold 0, restitution velocity threshold 0, no warm starting, split impulse on,
+no damping. Quaternions are (x, y, z, w) in pybullet as here, so no reordering is needed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["PybulletScene", "bounce_heights"]
+
+
+class PybulletScene:
+    """A DIRECT-mode pybullet world with a static box floor whose top is at z = 0.
+
+    Parameters
+    ----------
+    dt : float
+        Fixed time step.
+    gravity : float
+        Magnitude of g along -z.
+    floor_half_extents : (3,) float
+        Half sizes of the floor box.
+    floor_restitution, floor_friction : float
+    """
+
+    def __init__(
+        self,
+        dt: float,
+        gravity: float = 9.81,
+        floor_half_extents=(2.0, 2.0, 0.5),
+        floor_restitution: float = 1.0,
+        floor_friction: float = 0.5,
+    ):
+        import pybullet
+
+        self.p = pybullet
+        self.client = pybullet.connect(pybullet.DIRECT)
+        p, c = self.p, self.client
+        p.setGravity(0, 0, -gravity, physicsClientId=c)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=dt,
+            numSubSteps=1,
+            restitutionVelocityThreshold=0.0,
+            warmStartingFactor=0.0,
+            useSplitImpulse=1,
+            physicsClientId=c,
+        )
+        half = np.asarray(floor_half_extents, float)
+        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half.tolist(), physicsClientId=c)
+        self.floor = p.createMultiBody(0, shape, basePosition=[0, 0, -half[2]], physicsClientId=c)
+        self._set_material(self.floor, floor_restitution, floor_friction)
+
+    def _set_material(self, body: int, restitution: float, friction: float) -> None:
+        self.p.changeDynamics(
+            body,
+            -1,
+            restitution=restitution,
+            lateralFriction=friction,
+            linearDamping=0.0,
+            angularDamping=0.0,
+            contactProcessingThreshold=0.0,
+            physicsClientId=self.client,
+        )
+
+    def add_sphere(self, radius, mass, position, restitution=0.0, friction=0.0) -> int:
+        shape = self.p.createCollisionShape(
+            self.p.GEOM_SPHERE, radius=radius, physicsClientId=self.client
+        )
+        body = self.p.createMultiBody(
+            mass, shape, basePosition=list(position), physicsClientId=self.client
+        )
+        self._set_material(body, restitution, friction)
+        return body
+
+    def add_box(self, half_extents, mass, position, restitution=0.0, friction=0.0) -> int:
+        shape = self.p.createCollisionShape(
+            self.p.GEOM_BOX, halfExtents=list(half_extents), physicsClientId=self.client
+        )
+        body = self.p.createMultiBody(
+            mass, shape, basePosition=list(position), physicsClientId=self.client
+        )
+        self._set_material(body, restitution, friction)
+        return body
+
+    def step(self, n: int = 1) -> None:
+        for _ in range(n):
+            self.p.stepSimulation(physicsClientId=self.client)
+
+    def position(self, body: int) -> np.ndarray:
+        return np.array(self.p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0])
+
+    def velocity(self, body: int) -> np.ndarray:
+        return np.array(self.p.getBaseVelocity(body, physicsClientId=self.client)[0])
+
+    def close(self) -> None:
+        self.p.disconnect(physicsClientId=self.client)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def bounce_heights(e: float, dt: float, seconds: float, radius: float = 0.5):
+    """pybullet ball (mass 1) dropped from 1 m above the floor: apex heights above rest, and
+    the total energy (kinetic + potential) at every step."""
+    with PybulletScene(dt) as scene:
+        ball = scene.add_sphere(radius, 1.0, (0, 0, 1.0 + radius), restitution=e)
+        heights, energies = [], []
+        for _ in range(round(seconds / dt)):
+            scene.step()
+            z = scene.position(ball)[2]
+            v = scene.velocity(ball)
+            heights.append(z - radius)
+            energies.append(0.5 * v @ v + 9.81 * z)
+    h = np.array(heights)
+    apex = np.flatnonzero((h[1:-1] > h[:-2]) & (h[1:-1] >= h[2:])) + 1
+    return h[apex], np.array(energies)
