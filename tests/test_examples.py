@@ -11,7 +11,7 @@ EXAMPLES = sorted((Path(__file__).parents[1] / "examples").glob("*.py"))
 
 def test_examples_are_found():
     names = {path.stem for path in EXAMPLES}
-    assert {"thesis_example", "dzhanibekov", "custom_mesh", "scene_file"} <= names
+    assert {"thesis_example", "dzhanibekov", "custom_mesh", "scene_file", "bouncing_ball"} <= names
 
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=[path.stem for path in EXAMPLES])
