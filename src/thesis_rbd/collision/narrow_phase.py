@@ -232,6 +232,37 @@ def _region_depth(u, corners_a, corners_b):
 
 
 @njit
+def _edge_vectors(corners):
+    """Distinct edge directions (up to sign, to 1e-12) of the triangles in ``corners``."""
+    m = corners.shape[0]
+    edges = np.empty((m, 3))
+    count = 0
+    for k in range(m):
+        t = k // 3
+        a, b = corners[k], corners[3 * t + (k % 3 + 1) % 3]
+        e = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
+        length = np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        if length == 0.0:
+            continue
+        repeat = False
+        for j in range(count):
+            cross = (
+                edges[j, 1] * e[2] - edges[j, 2] * e[1],
+                edges[j, 2] * e[0] - edges[j, 0] * e[2],
+                edges[j, 0] * e[1] - edges[j, 1] * e[0],
+            )
+            if cross[0] ** 2 + cross[1] ** 2 + cross[2] ** 2 <= 1e-24 * length * length:
+                repeat = True  # parallel to a kept edge: the same axis
+                break
+        if not repeat:
+            edges[count, 0], edges[count, 1], edges[count, 2] = (
+                e[0] / length, e[1] / length, e[2] / length,
+            )  # fmt: skip
+            count += 1
+    return edges[:count]
+
+
+@njit
 def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
     """Region of each intersecting triangle pair, and each region's normal and depth.
 
@@ -319,22 +350,26 @@ def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
                     towards_a += corners_a[c] / corners_a.shape[0]
                 for c in range(corners_b.shape[0]):
                     towards_a -= corners_b[c] / corners_b.shape[0]
-            for i in range(faces_a.shape[0]):
-                for ea in range(3):
-                    pa = corners_a[3 * i + (ea + 1) % 3] - corners_a[3 * i + ea]
-                    for j in range(faces_b.shape[0]):
-                        for eb in range(3):
-                            pb = corners_b[3 * j + (eb + 1) % 3] - corners_b[3 * j + eb]
-                            n = np.cross(pa, pb)
-                            length = np.sqrt(n @ n)
-                            if length <= 1e-9 * np.sqrt((pa @ pa) * (pb @ pb)):
-                                continue  # parallel edges: no axis
-                            if n @ towards_a < 0.0:
-                                n = -n
-                            u = (n[0] / length, n[1] / length, n[2] / length)
-                            d = _region_depth(u, corners_a, corners_b)
-                            if d < best:
-                                best, best_u = d, u
+            edges_a = _edge_vectors(corners_a)
+            edges_b = _edge_vectors(corners_b)
+            for ia in range(edges_a.shape[0]):
+                pa = edges_a[ia]
+                la2 = pa[0] * pa[0] + pa[1] * pa[1] + pa[2] * pa[2]
+                for ib in range(edges_b.shape[0]):
+                    pb = edges_b[ib]
+                    n0 = pa[1] * pb[2] - pa[2] * pb[1]
+                    n1 = pa[2] * pb[0] - pa[0] * pb[2]
+                    n2 = pa[0] * pb[1] - pa[1] * pb[0]
+                    length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+                    lb2 = pb[0] * pb[0] + pb[1] * pb[1] + pb[2] * pb[2]
+                    if length <= 1e-9 * np.sqrt(la2 * lb2):
+                        continue  # parallel edges: no axis
+                    if n0 * towards_a[0] + n1 * towards_a[1] + n2 * towards_a[2] < 0.0:
+                        length = -length
+                    u = (n0 / length, n1 / length, n2 / length)
+                    d = _region_depth(u, corners_a, corners_b)
+                    if d < best:
+                        best, best_u = d, u
         normals[g, 0], normals[g, 1], normals[g, 2] = best_u
         depths[g] = max(best, 0.0)
     return region, normals, depths
@@ -385,20 +420,29 @@ def _manifold_corners(points, normal):
     return np.array(chosen)
 
 
-@njit
-def _project_along(p, u, t0, t1, t2, margin):
-    """Signed distance s with p + s u on triangle (t0, t1, t2), or NaN if it misses it by
-    more than about ``margin`` (a length)."""
-    e1, e2 = t1 - t0, t2 - t0
-    n = np.cross(e1, e2)
-    along = n @ u
-    if abs(along) <= 1e-12 * np.sqrt(n @ n):
+@njit(inline="always")
+def _project_along(p, u, corners, t, margin):
+    """Signed distance s with p + s u on triangle t of ``corners`` (rows 3t..3t+2), or NaN
+    if it misses the triangle by more than about ``margin`` (a length)."""
+    t0, t1, t2 = corners[3 * t], corners[3 * t + 1], corners[3 * t + 2]
+    e1 = (t1[0] - t0[0], t1[1] - t0[1], t1[2] - t0[2])
+    e2 = (t2[0] - t0[0], t2[1] - t0[1], t2[2] - t0[2])
+    n = (
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    )
+    along = n[0] * u[0] + n[1] * u[1] + n[2] * u[2]
+    if abs(along) <= 1e-12 * np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2):
         return np.nan
-    s = (n @ (t0 - p)) / along
-    x = p + s * u - t0
+    s = (n[0] * (t0[0] - p[0]) + n[1] * (t0[1] - p[1]) + n[2] * (t0[2] - p[2])) / along
+    x = (p[0] + s * u[0] - t0[0], p[1] + s * u[1] - t0[1], p[2] + s * u[2] - t0[2])
     # barycentric coordinates of x in (e1, e2)
-    d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
-    d1, d2 = x @ e1, x @ e2
+    d11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]
+    d12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]
+    d22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]
+    d1 = x[0] * e1[0] + x[1] * e1[1] + x[2] * e1[2]
+    d2 = x[0] * e2[0] + x[1] * e2[1] + x[2] * e2[2]
     det = d11 * d22 - d12 * d12
     if det <= 0.0:
         return np.nan
@@ -408,6 +452,17 @@ def _project_along(p, u, t0, t1, t2, margin):
     if b1 < -slack or b2 < -slack or b1 + b2 > 1.0 + slack:
         return np.nan
     return s
+
+
+@njit
+def _face_corners(faces, V, F, R, t):
+    """(3k, 3) corners of ``faces`` of mesh (V, F), mapped by (R, t)."""
+    corners = np.empty((3 * faces.shape[0], 3))
+    for i in range(faces.shape[0]):
+        for c in range(3):
+            x = _corner(V, F, faces[i], c, R, t)
+            corners[3 * i + c, 0], corners[3 * i + c, 1], corners[3 * i + c, 2] = x
+    return corners
 
 
 @njit
@@ -421,39 +476,31 @@ def _vertex_face_points(faces_a, faces_b, Va, Fa, Vb, Fb, Rab, tab, u, depth, ba
     Returns points (q, 3) in A's frame, midway between the corner and the face it is
     pressed into, and their [face of A, face of B] pairs.
     """
-    identity = np.eye(3)
-    zero = np.zeros(3)
-    points = np.empty((0, 3))
-    pairs = np.empty((0, 2), np.int64)
+    corners_a = _face_corners(faces_a, Va, Fa, np.eye(3), np.zeros(3))
+    corners_b = _face_corners(faces_b, Vb, Fb, Rab, tab)
+    capacity = corners_a.shape[0] + corners_b.shape[0]
+    points = np.empty((capacity, 3))
+    pairs = np.empty((capacity, 2), np.int64)
+    found = 0
     for side in range(2):
-        own = faces_a if side == 0 else faces_b
-        other = faces_b if side == 0 else faces_a
-        direction = u if side == 0 else -u
-        for i in range(own.shape[0]):
-            for c in range(3):
-                if side == 0:
-                    p = np.array(_corner(Va, Fa, own[i], c, identity, zero))
-                else:
-                    p = np.array(_corner(Vb, Fb, own[i], c, Rab, tab))
-                for j in range(other.shape[0]):
-                    if side == 0:
-                        t0 = np.array(_corner(Vb, Fb, other[j], 0, Rab, tab))
-                        t1 = np.array(_corner(Vb, Fb, other[j], 1, Rab, tab))
-                        t2 = np.array(_corner(Vb, Fb, other[j], 2, Rab, tab))
-                    else:
-                        t0 = np.array(_corner(Va, Fa, other[j], 0, identity, zero))
-                        t1 = np.array(_corner(Va, Fa, other[j], 1, identity, zero))
-                        t2 = np.array(_corner(Va, Fa, other[j], 2, identity, zero))
-                    s = _project_along(p, direction, t0, t1, t2, band)
-                    if s == s and -1e-9 * band <= s <= depth + band:
-                        point = (p + 0.5 * s * direction).reshape(1, 3)
-                        points = np.concatenate((points, point))
-                        pair = np.empty((1, 2), np.int64)
-                        pair[0, 0] = own[i] if side == 0 else other[j]
-                        pair[0, 1] = other[j] if side == 0 else own[i]
-                        pairs = np.concatenate((pairs, pair))
-                        break
-    return points, pairs
+        own = corners_a if side == 0 else corners_b
+        other = corners_b if side == 0 else corners_a
+        sign = 1.0 if side == 0 else -1.0
+        direction = (sign * u[0], sign * u[1], sign * u[2])
+        for k in range(own.shape[0]):
+            p = own[k]
+            for t in range(other.shape[0] // 3):
+                s = _project_along(p, direction, other, t, band)
+                if s == s and -1e-9 * band <= s <= depth + band:
+                    for a in range(3):
+                        points[found, a] = p[a] + 0.5 * s * direction[a]
+                    face_own = faces_a[k // 3] if side == 0 else faces_b[k // 3]
+                    face_other = faces_b[t] if side == 0 else faces_a[t]
+                    pairs[found, 0] = face_own if side == 0 else face_other
+                    pairs[found, 1] = face_other if side == 0 else face_own
+                    found += 1
+                    break
+    return points[:found], pairs[:found]
 
 
 @njit
