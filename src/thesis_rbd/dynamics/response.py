@@ -155,6 +155,18 @@ class ImpulseCache:
         self._keys, self._points, self._impulses = keys[order], local[order], impulse[order]
 
 
+@njit(inline="always")
+def _rotate_tensor(R, T, out):
+    """out = R T R^T for 3 x 3 arrays, by hand: BLAS calls cost more than the arithmetic."""
+    for a in range(3):
+        for b in range(3):
+            total = 0.0
+            for c in range(3):
+                row = R[a, 0] * T[0, c] + R[a, 1] * T[1, c] + R[a, 2] * T[2, c]
+                total += row * R[b, c]
+            out[a, b] = total
+
+
 @njit
 def body_velocities(
     count, orientation, linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body
@@ -166,8 +178,8 @@ def body_velocities(
     R = np.empty((3, 3))
     for i in range(count):
         to_matrix_into(orientation[i], R)
-        Ii = R @ inverse_inertia_body[i] @ R.T
-        inverse_inertia[i] = Ii
+        Ii = inverse_inertia[i]
+        _rotate_tensor(R, inverse_inertia_body[i], Ii)
         for a in range(3):
             v[i, a] = linear_momentum[i, a] * inverse_mass[i]
             w[i, a] = (
@@ -184,11 +196,12 @@ def _write_momenta(
 ):
     """P = M v and L = R I_body R^T w for the touched dynamic bodies."""
     R = np.empty((3, 3))
+    I = np.empty((3, 3))
     for i in range(touched.shape[0]):
         if not touched[i] or inverse_mass[i] == 0.0:
             continue
         to_matrix_into(orientation[i], R)
-        I = R @ inertia_body[i] @ R.T
+        _rotate_tensor(R, inertia_body[i], I)
         for a in range(3):
             linear_momentum[i, a] = v[i, a] / inverse_mass[i]
             angular_momentum[i, a] = I[a, 0] * w[i, 0] + I[a, 1] * w[i, 1] + I[a, 2] * w[i, 2]
