@@ -180,3 +180,14 @@ def test_many_bodies_grow_the_arrays_without_losing_state():
     np.testing.assert_allclose(world.positions[:, 0], np.arange(40))
     np.testing.assert_allclose(world.positions[:, 1], np.arange(40) * world.time, rtol=1e-12)
     assert world.names[7] == "body7"
+
+
+def test_non_collidable_bodies_fly_through_and_skip_the_collision_stages():
+    world = rbd.World()
+    a = world.add_body(CUBE, mass=1.0, position=(-1, 0, 0), linear_velocity=(2, 0, 0))
+    world.add_body(CUBE, mass=1.0, position=(1, 0, 0), collidable=False)
+    assert world.stages == ["integrate"]
+    world.step(240)
+    np.testing.assert_allclose(world.linear_velocity(a), [2, 0, 0])  # passed straight through
+    world.add_body(CUBE, mass=1.0, position=(5, 0, 0))
+    assert "narrow_phase" in world.stages

@@ -155,6 +155,7 @@ class World:
         friction: float = 0.0,
         static: bool = False,
         name: str | None = None,
+        collidable: bool = True,
     ) -> int:
         """Add a body and return its index.
 
@@ -179,6 +180,9 @@ class World:
             An immovable body (zero inverse mass and inertia).
         name : str, optional
             Label used in trajectories; "body<i>" by default.
+        collidable : bool
+            False keeps the body out of collision detection (free flight only); with fewer
+            than two collidable bodies the world runs no collision stage at all.
         """
         if not isinstance(mesh, TriangleMesh):
             raise ValueError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
@@ -230,6 +234,7 @@ class World:
             restitution=restitution,
             friction=friction,
             static=bool(static),
+            collidable=bool(collidable),
         )
         self._collision.add_body(mesh)
         self._sleep.resize(self.bodies.count)
@@ -280,7 +285,12 @@ class World:
         b = self.bodies
         dynamic = bool(b.count) and not bool(np.all(b.static))
         gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
-        collides = dynamic and b.count >= 2
+        collidable = b.collidable
+        collides = (
+            dynamic
+            and int(np.count_nonzero(collidable)) >= 2
+            and not bool(np.all(b.static[collidable]))
+        )
         always = _always
         pipeline = []
         if gathers_forces:
@@ -394,7 +404,7 @@ class World:
 
     def _stage_broad_phase(self) -> None:
         """Sweep-and-prune: candidate pairs with at least one moving body."""
-        self._collision.broad_phase(resting=self._resting())
+        self._collision.broad_phase(resting=self._resting(), ignored=~self.bodies.collidable)
 
     def _has_candidates(self) -> bool:
         return self._any_awake() and len(self._collision.candidate_pairs) > 0
@@ -406,7 +416,7 @@ class World:
             self._collision.contacts, self.bodies.static
         ):
             # the woken islands' own contacts were not candidates: find them now
-            self._collision.broad_phase(resting=self._resting())
+            self._collision.broad_phase(resting=self._resting(), ignored=~self.bodies.collidable)
             self._collision.narrow_phase(self.bodies)
 
     def _has_contacts(self) -> bool:

@@ -139,11 +139,13 @@ class CollisionPipeline:
             }
         return len(caught)
 
-    def broad_phase(self, resting: np.ndarray) -> None:
+    def broad_phase(self, resting: np.ndarray, ignored: np.ndarray | None = None) -> None:
         """Update the pair cache; keep the pairs with at least one moving dynamic body.
 
         Parameters
         ----------
+        ignored : (n,) bool, optional
+            Bodies outside collision detection: no pair of theirs is a candidate.
         resting : (n,) bool
             Bodies that do not move this step (static or asleep): a pair of two of them
             cannot produce a new contact.
@@ -155,6 +157,8 @@ class CollisionPipeline:
         self.sap.update(self.lower, self.upper, check=False)  # kernel bounds: finite, lo <= hi
         pairs = self.sap.pairs
         keep = ~(resting[pairs[:, 0]] & resting[pairs[:, 1]])
+        if ignored is not None:
+            keep &= ~(ignored[pairs[:, 0]] | ignored[pairs[:, 1]])
         self.candidate_pairs = np.ascontiguousarray(pairs[keep])
         self.stats["candidate_pairs"] = len(self.candidate_pairs)
         if len(self.candidate_pairs) == 0:

@@ -55,6 +55,8 @@ class BodyArrays:
         Material coefficients, combined per contact by the rules of DESIGN.md.
     static : (n,) bool
         True for immovable bodies.
+    collidable : (n,) bool
+        False for bodies that take part in no collision (free flight only).
     """
 
     _FIELDS: ClassVar[dict[str, tuple[tuple[int, ...], type]]] = {
@@ -71,6 +73,7 @@ class BodyArrays:
         "restitution": ((), np.float64),
         "friction": ((), np.float64),
         "static": ((), np.bool_),
+        "collidable": ((), np.bool_),
     }
 
     def __init__(self):
