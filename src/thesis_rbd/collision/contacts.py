@@ -44,9 +44,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision._vec3 import add, cross, dot, lerp, matvec, norm, scale, sub
 
-__all__ = ["Contacts", "compute_contacts", "merge_contacts"]
+__all__ = ["Contacts", "cluster_points", "compute_contacts", "merge_contacts"]
 
 
 @dataclass(frozen=True)
@@ -378,20 +379,10 @@ def compute_contacts(pairs, Va, Fa, Vb, Fb, Rab, tab):
 
 
 @njit
-def _find(parent, i):
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
+def cluster_points(points, tolerance):
+    """Union-find ``parent`` (c,) grouping points closer than ``tolerance``, transitively.
 
-
-@njit
-def merge_contacts(points, depths, tolerance):
-    """Indices (increasing) of the contacts kept after merging near-duplicates.
-
-    Contacts within ``tolerance`` of each other are clustered transitively (union-find over a
-    sweep along x); each cluster keeps its contact of least depth (ties: lowest index). Kept
-    contacts are pairwise more than ``tolerance`` apart.
+    A sweep along x bounds the pairs compared; roots are found with ``find_root``.
     """
     c = points.shape[0]
     parent = np.arange(c)
@@ -406,14 +397,24 @@ def merge_contacts(points, depths, tolerance):
             dy = points[i, 1] - points[j, 1]
             dz = points[i, 2] - points[j, 2]
             if dx * dx + dy * dy + dz * dz <= tol2:
-                ri = _find(parent, i)
-                rj = _find(parent, j)
-                if ri != rj:
-                    parent[max(ri, rj)] = min(ri, rj)
+                join(parent, i, j)
             jj += 1
+    return parent
+
+
+@njit
+def merge_contacts(points, depths, tolerance):
+    """Indices (increasing) of the contacts kept after merging near-duplicates.
+
+    Contacts within ``tolerance`` of each other are clustered transitively (union-find over a
+    sweep along x); each cluster keeps its contact of least depth (ties: lowest index). Kept
+    contacts are pairwise more than ``tolerance`` apart.
+    """
+    c = points.shape[0]
+    parent = cluster_points(points, tolerance)
     best = np.full(c, -1, dtype=np.int64)
     for i in range(c):
-        r = _find(parent, i)
+        r = find_root(parent, i)
         if best[r] < 0 or depths[i] < depths[best[r]]:
             best[r] = i
     keep = np.empty(c, dtype=np.int64)

@@ -35,8 +35,9 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.collide import MERGE_FRACTION, traverse
-from thesis_rbd.collision.contacts import compute_contacts
+from thesis_rbd.collision.contacts import cluster_points, compute_contacts
 from thesis_rbd.collision.obbtree import OBBTree
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
@@ -123,14 +124,6 @@ class GeometrySet:
 
 
 @njit
-def _cluster_root(parent, i):
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
-
-
-@njit
 def _region_of_faces(tri_pairs, region, faces):
     """Region of each contact, looked up by its [face of A, face of B] pair."""
     width = tri_pairs[:, 1].max() + 1
@@ -161,26 +154,11 @@ def reduce_contacts(points, normals, depths, faces, tolerance):
         faces of its deepest member, and that depth.
     """
     c = points.shape[0]
-    parent = np.arange(c)
-    order = np.argsort(points[:, 0], kind="mergesort")
-    tol2 = tolerance * tolerance
-    for ii in range(c):
-        i = order[ii]
-        jj = ii + 1
-        while jj < c and points[order[jj], 0] - points[i, 0] <= tolerance:
-            j = order[jj]
-            d2 = 0.0
-            for a in range(3):
-                d2 += (points[i, a] - points[j, a]) ** 2
-            if d2 <= tol2:
-                ri, rj = _cluster_root(parent, i), _cluster_root(parent, j)
-                if ri != rj:
-                    parent[max(ri, rj)] = min(ri, rj)
-            jj += 1
+    parent = cluster_points(points, tolerance)
     label = np.full(c, -1)
     clusters = 0
     for i in range(c):
-        r = _cluster_root(parent, i)
+        r = find_root(parent, i)
         if label[r] < 0:
             label[r] = clusters
             clusters += 1
@@ -190,7 +168,7 @@ def reduce_contacts(points, normals, depths, faces, tolerance):
     out_faces = np.zeros((clusters, 2), np.int64)
     members = np.zeros(clusters)
     for i in range(c):
-        k = label[_cluster_root(parent, i)]
+        k = label[find_root(parent, i)]
         members[k] += 1.0
         for a in range(3):
             out_points[k, a] += points[i, a]
@@ -290,13 +268,11 @@ def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
         order = np.argsort(tri_pairs[:, column], kind="mergesort")
         for r in range(1, k):
             if tri_pairs[order[r], column] == tri_pairs[order[r - 1], column]:
-                x, y = _cluster_root(parent, order[r]), _cluster_root(parent, order[r - 1])
-                if x != y:
-                    parent[max(x, y)] = min(x, y)
+                join(parent, order[r], order[r - 1])
     region = np.full(k, -1)
     count = 0
     for r in range(k):
-        root = _cluster_root(parent, r)
+        root = find_root(parent, r)
         if region[root] < 0:
             region[root] = count
             count += 1

@@ -10,16 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._union_find import find_root, join
 
 __all__ = ["find_islands"]
-
-
-@njit(inline="always")
-def _root(parent, i):
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]  # path halving
-        i = parent[i]
-    return i
 
 
 @njit
@@ -52,16 +45,14 @@ def find_islands(body_count, body_a, body_b, static):
         a, b = body_a[k], body_b[k]
         if static[a] or static[b]:
             continue
-        ra, rb = _root(parent, a), _root(parent, b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
+        join(parent, a, b)
     # number the islands that own contacts, in order of their first contact
     label = np.full(body_count, -1)
     contact_island = np.empty(c, np.int64)
     islands = 0
     for k in range(c):
         a = body_a[k] if not static[body_a[k]] else body_b[k]
-        r = _root(parent, a)
+        r = find_root(parent, a)
         if label[r] < 0:
             label[r] = islands
             islands += 1
@@ -69,7 +60,7 @@ def find_islands(body_count, body_a, body_b, static):
     body_island = np.full(body_count, -1)
     for i in range(body_count):
         if not static[i]:
-            body_island[i] = label[_root(parent, i)]
+            body_island[i] = label[find_root(parent, i)]
     counts = np.zeros(islands + 1, np.int64)
     for k in range(c):
         counts[contact_island[k] + 1] += 1
