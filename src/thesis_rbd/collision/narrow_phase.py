@@ -596,8 +596,9 @@ def contacts_for_pairs(
         if tri_pairs.shape[0] == 0:
             continue
         # B's mesh frame in A's: R_ab = R_a^T R_b, t_ab = R_a^T (t_b - t_a)
-        Rab = Ti[:3, :3].T @ Tj[:3, :3]
-        tab = Ti[:3, :3].T @ (Tj[:3, 3] - Ti[:3, 3])
+        Ri = np.ascontiguousarray(Ti[:3, :3].T)
+        Rab = Ri @ np.ascontiguousarray(Tj[:3, :3])
+        tab = Ri @ np.ascontiguousarray(Tj[:3, 3] - Ti[:3, 3])
         pts, _, _, fcs = compute_contacts(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
         region, region_normal, region_depth = region_normals(tri_pairs, Vi, Fi, Vj, Fj, Rab, tab)
         pts, nrm, dep, fcs = _region_manifolds(

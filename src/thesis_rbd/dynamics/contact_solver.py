@@ -381,14 +381,16 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
     """Solve the contact problem exactly (Lemke on the Stewart-Trinkle LCP), in place.
 
     Same arguments as ``solve_pgs``; ``impulse`` is overwritten (no warm start). The pivoting
-    answer is checked against the LCP conditions; if Lemke's path ended on a ray or the
-    answer misses them by more than 1e-6 relative (round-off on a badly degenerate island),
-    the island is solved by ``pgs_fallback_iterations`` PGS sweeps instead.
+    answer is checked against the LCP conditions: if it misses them by more than 1e-6
+    relative (the path ended on a ray with the artificial variable still positive, or
+    round-off on a badly degenerate island), the island is solved by
+    ``pgs_fallback_iterations`` PGS sweeps instead.
 
     Returns
     -------
     status : int
-        0 solved exactly; 1 secondary ray, 2 pivot limit, 3 inaccurate: PGS was used.
+        0 solved exactly; 1 secondary ray, 2 pivot limit, 3 inaccurate (for all of
+        these PGS was used).
     """
     c = contacts[0].shape[0]
     A = delassus_matrix(contacts, bodies)
@@ -398,8 +400,10 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
             u[3 * k + d] = relative_velocity(k, d, contacts, bodies)
     M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
     z, status, _ = lemke(M, q)
-    if status == 0 and _lcp_residual(M, q, z) > 1e-6:
-        status = 3
+    # Redundant contacts make the path degenerate: it can stop on a ray while the artificial
+    # variable is already zero, and then the basis in hand is a solution. The LCP conditions
+    # are the judge either way.
+    status = 0 if _lcp_residual(M, q, z) <= 1e-6 else max(status, 3)
     if status != 0:
         impulse[:] = 0.0
         solve_pgs(pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse)
