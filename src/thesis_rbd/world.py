@@ -32,12 +32,7 @@ from thesis_rbd.dynamics.forces import (
     world_arm_to_body,
 )
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
-from thesis_rbd.dynamics.response import (
-    ContactSettings,
-    ImpulseCache,
-    body_velocities,
-    resolve_contacts,
-)
+from thesis_rbd.dynamics.response import ContactSettings, ImpulseCache, resolve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.geometry.mass import mass_properties
 from thesis_rbd.geometry.mesh import TriangleMesh
@@ -437,16 +432,8 @@ class World:
     def _stage_sleep(self) -> None:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
-        v, w, _ = body_velocities(
-            b.count,
-            b.full("orientation"),
-            b.full("linear_momentum"),
-            b.full("angular_momentum"),
-            b.full("inverse_mass"),
-            b.full("inverse_inertia_body"),
-        )
         contacts = self._collision.contacts if self._has_contacts() else empty_contacts()
-        fell = self._sleep.update(b, contacts, v, w, self.dt)
+        fell = self._sleep.update(b, contacts, self.dt)
         b.linear_momentum[fell] = 0.0
         b.angular_momentum[fell] = 0.0
 

@@ -52,6 +52,8 @@ class CollisionPipeline:
     def __init__(self):
         self.geometry = GeometrySet()
         self.geometry_of_body = np.zeros(0, np.int64)
+        self.local_lower = np.zeros((0, 3))
+        self.local_upper = np.zeros((0, 3))
         self.sap = SweepAndPrune()
         self.lower = np.zeros((0, 3))
         self.upper = np.zeros((0, 3))
@@ -61,7 +63,11 @@ class CollisionPipeline:
 
     def add_body(self, mesh) -> None:
         """Register the next body's mesh (its tree is shared with bodies of the same mesh)."""
-        self.geometry_of_body = np.append(self.geometry_of_body, self.geometry.geometry_of(mesh))
+        g = self.geometry.geometry_of(mesh)
+        self.geometry_of_body = np.append(self.geometry_of_body, g)
+        # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
+        self.local_lower = np.vstack([self.local_lower, self.geometry.local_lower[g]])
+        self.local_upper = np.vstack([self.local_upper, self.geometry.local_upper[g]])
 
     def bounds(self, bodies, margin: np.ndarray, swept_from=None) -> None:
         """World AABB of every body, grown by ``margin`` (n,).
@@ -73,8 +79,7 @@ class CollisionPipeline:
         n = bodies.count
         if self.lower.shape[0] != n:
             self.lower, self.upper = np.empty((n, 3)), np.empty((n, 3))
-        g = self.geometry_of_body
-        local_lower, local_upper = self.geometry.local_lower[g], self.geometry.local_upper[g]
+        local_lower, local_upper = self.local_lower, self.local_upper
         com = bodies.full("center_of_mass_local")
         world_bounds(
             n, local_lower, local_upper, com, bodies.full("position"),

@@ -19,6 +19,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.spatial.quaternion import conjugate, rotate
 
 __all__ = ["SleepSettings", "SleepState"]
 
@@ -52,19 +53,39 @@ class SleepSettings:
 
 
 @njit
-def _still_time(count, frozen, static, v, w, still, dt, linear_tolerance, angular_tolerance):
-    """Advance each awake dynamic body's still-time; reset it for a moving body."""
+def _still_time(
+    count, frozen, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, still, dt, linear_tolerance, angular_tolerance,
+):  # fmt: skip
+    """Advance each awake dynamic body's still-time; reset it for a moving body.
+
+    Speeds come straight from the momenta: |v| = |P| / M and |w| = |I_body^-1 R^T L| (a
+    rotation keeps lengths), so nothing per body is allocated. Returns the largest
+    still-time.
+    """
     lin2 = linear_tolerance * linear_tolerance
     ang2 = angular_tolerance * angular_tolerance
+    longest = 0.0
     for i in range(count):
         if static[i] or frozen[i]:
             continue
-        speed2 = v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2
-        spin2 = w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2
+        im = inverse_mass[i]
+        speed2 = (
+            (linear_momentum[i, 0] ** 2 + linear_momentum[i, 1] ** 2 + linear_momentum[i, 2] ** 2)
+            * im
+            * im
+        )
+        Lb = rotate(conjugate(orientation[i]), angular_momentum[i])
+        Ii = inverse_inertia_body[i]
+        spin2 = 0.0
+        for a in range(3):
+            spin2 += (Ii[a, 0] * Lb[0] + Ii[a, 1] * Lb[1] + Ii[a, 2] * Lb[2]) ** 2
         if speed2 <= lin2 and spin2 <= ang2:
             still[i] += dt
         else:
             still[i] = 0.0
+        longest = max(longest, still[i])
+    return longest
 
 
 class SleepState:
@@ -122,16 +143,15 @@ class SleepState:
         self.wake(hits)
         return True
 
-    def update(self, bodies, contacts, v, w, dt) -> np.ndarray:
+    def update(self, bodies, contacts, dt) -> np.ndarray:
         """Advance still-times and put still islands to sleep.
 
         Parameters
         ----------
         bodies : BodyArrays
+            After the contact response.
         contacts : dict of arrays
             This step's contacts (they define the islands).
-        v, w : (n, 3) float64
-            Linear and angular velocities after the contact response.
         dt : float
 
         Returns
@@ -142,9 +162,14 @@ class SleepState:
         s = self.settings
         n = bodies.count
         static = bodies.static
-        _still_time(
-            n, self.asleep, static, v, w, self.still, dt, s.linear_tolerance, s.angular_tolerance
-        )
+        longest = _still_time(
+            n, self.asleep, static, bodies.full("orientation"), bodies.full("linear_momentum"),
+            bodies.full("angular_momentum"), bodies.full("inverse_mass"),
+            bodies.full("inverse_inertia_body"), self.still, dt, s.linear_tolerance,
+            s.angular_tolerance,
+        )  # fmt: skip
+        if longest < s.time_to_sleep:
+            return np.zeros(0, np.int64)  # nobody has been still long enough: no island work
         body_island, _, _ = find_islands(n, contacts["body_a"], contacts["body_b"], static)
         awake = ~(static | self.asleep)
         # bodies touching nothing are islands of their own
