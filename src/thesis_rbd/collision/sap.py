@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from thesis_rbd.collision import _sap_kernels as kernels
+from thesis_rbd.collision import _sap_membership as membership
 from thesis_rbd.collision.pair_table import keys_to_pairs, new_table, table_from_keys
 
 __all__ = ["SweepAndPrune"]
@@ -314,8 +315,8 @@ class SweepAndPrune:
             added, removed = self._rebuild(budget=0, swaps=0)
             assert removed.shape[0] == 0  # old boxes did not move, so no pair can end
             return ids, keys_to_pairs(added)
-        new_keys = kernels.pairs_with_new(all_box, first)
-        self._val, self._ep = kernels.merge_endpoints(self._val, self._ep, new_box, first)
+        new_keys = membership.pairs_with_new(all_box, first)
+        self._val, self._ep = membership.merge_endpoints(self._val, self._ep, new_box, first)
         self._set_box(all_box)
         self._set_pair_keys(kernels.merge_pair_keys(self._pair_keys, new_keys[:0], new_keys))
         self._keys, self._flags, self._meta = table_from_keys(self._pair_keys)
@@ -353,7 +354,9 @@ class SweepAndPrune:
             raise ValueError("ids must be distinct")
         gone = np.zeros(n, dtype=bool)
         gone[idx] = True
-        val, ep, kept, removed = kernels.compact_removed(self._val, self._ep, self._pair_keys, gone)
+        val, ep, kept, removed = membership.compact_removed(
+            self._val, self._ep, self._pair_keys, gone
+        )
         self._val, self._ep = val, ep
         self._set_box(self._box[~gone])
         self._set_pair_keys(kept)
