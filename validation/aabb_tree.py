@@ -242,6 +242,28 @@ def _aabbs_disjoint(x, ca, ha, c, y, hb, R, absR):
     return False
 
 
+@njit(inline="always")
+def _push_children(stack, top, x, y, a_leaf, b_leaf, ha, hb, cha, chb):
+    """Push the children of the larger box of node pair (x, y), growing the stack if full.
+
+    The same descent rule as ``collide``'s traversal: split B when A is a leaf or B's
+    longest half-extent is larger, else split A. Returns (stack, top).
+    """
+    if top + 2 > stack.shape[0]:
+        bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
+        bigger[:top] = stack[:top]
+        stack = bigger
+    size_a = max(ha[x, 0], ha[x, 1], ha[x, 2])
+    size_b = max(hb[y, 0], hb[y, 1], hb[y, 2])
+    if a_leaf or (not b_leaf and size_b > size_a):
+        stack[top, 0], stack[top, 1] = x, chb[y, 1]
+        stack[top + 1, 0], stack[top + 1, 1] = x, chb[y, 0]
+    else:
+        stack[top, 0], stack[top, 1] = cha[x, 1], y
+        stack[top + 1, 0], stack[top + 1, 1] = cha[x, 0], y
+    return stack, top + 2
+
+
 @njit
 def _aabb_traverse(first_only, record, ca, ha, cha, Va, Fa, cb, hb, chb, Vb, Fb, R, tr):
     """Walk two AABB trees; return (pairs, bv_tests, tri_tests, box_log, tri_log).
@@ -303,23 +325,7 @@ def _aabb_traverse(first_only, record, ca, ha, cha, Va, Fa, cb, hb, chb, Vb, Fb,
                 if first_only:
                     break
             continue
-        if top + 2 > stack.shape[0]:
-            bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
-            bigger[:top] = stack[:top]
-            stack = bigger
-        size_a = max(ha[x, 0], ha[x, 1], ha[x, 2])
-        size_b = max(hb[y, 0], hb[y, 1], hb[y, 2])
-        if a_leaf or (not b_leaf and size_b > size_a):
-            stack[top, 0] = x
-            stack[top, 1] = chb[y, 1]
-            stack[top + 1, 0] = x
-            stack[top + 1, 1] = chb[y, 0]
-        else:
-            stack[top, 0] = cha[x, 1]
-            stack[top, 1] = y
-            stack[top + 1, 0] = cha[x, 0]
-            stack[top + 1, 1] = y
-        top += 2
+        stack, top = _push_children(stack, top, x, y, a_leaf, b_leaf, ha, hb, cha, chb)
     return pairs[:n_pairs].copy(), bv_tests, tri_tests, box_log[:bv_tests], tri_log[:tri_tests]
 
 
@@ -429,23 +435,7 @@ def _obb_record(ca, ra, ha, cha, cb, rb, hb, chb, M, tr):
             tri_log[n_tri, 1] = -chb[y, 0] - 1
             n_tri += 1
             continue
-        if top + 2 > stack.shape[0]:
-            bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
-            bigger[:top] = stack[:top]
-            stack = bigger
-        size_a = max(ha[x, 0], ha[x, 1], ha[x, 2])
-        size_b = max(hb[y, 0], hb[y, 1], hb[y, 2])
-        if a_leaf or (not b_leaf and size_b > size_a):
-            stack[top, 0] = x
-            stack[top, 1] = chb[y, 1]
-            stack[top + 1, 0] = x
-            stack[top + 1, 1] = chb[y, 0]
-        else:
-            stack[top, 0] = cha[x, 1]
-            stack[top, 1] = y
-            stack[top + 1, 0] = cha[x, 0]
-            stack[top + 1, 1] = y
-        top += 2
+        stack, top = _push_children(stack, top, x, y, a_leaf, b_leaf, ha, hb, cha, chb)
     return box_log[:nv].copy(), tri_log[:n_tri].copy()
 
 

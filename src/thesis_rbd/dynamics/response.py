@@ -408,7 +408,6 @@ def _step_back_to_impact(b, contacts, bodies, acceleration, dt, settings, detect
     Returns the new contact set and the time each body was stepped back (n,).
     """
     v, w = bodies[0], bodies[1]
-    position, orientation = b.full("position"), b.full("orientation")
     n = b.count
     body_rewind = np.zeros(n)
     body_a, body_b = contacts["body_a"], contacts["body_b"]
@@ -440,7 +439,6 @@ def _step_back_to_impact(b, contacts, bodies, acceleration, dt, settings, detect
     fresh = detector.contacts_of(b, np.ascontiguousarray(pairs))
     kept = ~rewound_contacts
     merged = {key: np.concatenate([contacts[key][kept], fresh[key]]) for key in fresh}
-    del position, orientation
     return merged, body_rewind
 
 
