@@ -1,6 +1,7 @@
 """LCP solvers against a brute-force oracle that enumerates complementary bases."""
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,3 +96,18 @@ def test_projected_gauss_seidel_converges_to_lemke(seed):
         errors.append(np.abs(z - exact).max())
     assert errors[-1] < 1e-6 * (1 + np.abs(exact).max())
     assert errors[-1] <= errors[0]
+
+
+def test_lemke_solves_a_singular_problem_from_coplanar_contacts():
+    """The position-projection LCP of a ten-box stack (40 contacts, 4 per face, rank 30):
+    pivoting on round-off entries once left w = Mz + q at -1e-4 with max |q| 1e-4."""
+    data = np.load(Path(__file__).parent / "data" / "stack_projection_lcp.npz")
+    M, q = data["M"], data["q"]
+    assert np.linalg.matrix_rank(M) < len(q)
+    z, status, _ = lemke(M, q)
+    w = M @ z + q
+    scale = np.abs(q).max()
+    assert status == 0
+    assert z.min() >= 0.0
+    assert w.min() >= -1e-6 * scale
+    assert np.abs(z * w).max() <= 1e-6 * scale * z.max()

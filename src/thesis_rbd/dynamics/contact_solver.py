@@ -365,15 +365,30 @@ def _stewart_trinkle_lcp(A, u, bias, friction, sides):
 
 @njit
 def _lcp_residual(M, q, z):
-    """Largest violation of z >= 0, w = Mz + q >= 0 and z.w = 0, relative to the data."""
+    """Largest violation of z >= 0, w = Mz + q >= 0 and z.w = 0, each relative to its scale.
+
+    w is measured against the largest of |q|, |Mz| and 1e-6 (an absolute floor: when nothing
+    approaches, q is round-off and so is any violation); z against its own largest entry.
+    """
     w = M @ z + q
-    scale = 1e-300
+    velocity_scale = 1e-6
+    impulse_scale = 1e-300
     for i in range(q.shape[0]):
-        scale = max(scale, abs(q[i]))
+        velocity_scale = max(velocity_scale, abs(q[i]), abs(w[i] - q[i]))
+        impulse_scale = max(impulse_scale, abs(z[i]))
     worst = 0.0
     for i in range(q.shape[0]):
-        worst = max(worst, -z[i] * max(1.0, abs(M[i, i])), -w[i], abs(z[i] * w[i]) / scale)
-    return worst / scale
+        worst = max(
+            worst,
+            -z[i] / impulse_scale,
+            -w[i] / velocity_scale,
+            abs(z[i] * w[i]) / (impulse_scale * velocity_scale),
+        )
+    return worst
+
+
+# Relative pivot tolerances for Lemke, tried in turn until one answer passes the check.
+_PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
 
 @njit
@@ -399,11 +414,17 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
         for d in range(3):
             u[3 * k + d] = relative_velocity(k, d, contacts, bodies)
     M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
-    z, status, _ = lemke(M, q)
-    # Redundant contacts make the path degenerate: it can stop on a ray while the artificial
-    # variable is already zero, and then the basis in hand is a solution. The LCP conditions
-    # are the judge either way.
-    status = 0 if _lcp_residual(M, q, z) <= 1e-6 else max(status, 3)
+    # Coplanar contacts make M singular and the path degenerate; a pivot a millionth of its
+    # column's largest entry is round-off, and pivoting on it wrecks the tableau. The default
+    # tolerance rejects those; the others are retries for the rare path it blocks.
+    # Redundant contacts can also stop the path on a ray while the artificial variable is
+    # already zero, and then the basis in hand is a solution: the LCP conditions are the
+    # judge either way.
+    for pivot_tolerance in _PIVOT_TOLERANCES:
+        z, status, _ = lemke(M, q, 0, pivot_tolerance)
+        status = 0 if _lcp_residual(M, q, z) <= 1e-6 else max(status, 3)
+        if status == 0:
+            break
     if status != 0:
         impulse[:] = 0.0
         solve_pgs(pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse)

@@ -77,7 +77,7 @@ def _lexicographic_ratio_test(T, basis, entering, n, artificial, pivot_tolerance
 
 
 @njit
-def lemke(M, q, max_pivots=0, pivot_tolerance=1e-12):
+def lemke(M, q, max_pivots=0, pivot_tolerance=1e-7):
     """Solve LCP(M, q) by Lemke's method with the covering vector d = 1.
 
     Parameters
@@ -89,7 +89,10 @@ def lemke(M, q, max_pivots=0, pivot_tolerance=1e-12):
     max_pivots : int
         Pivot limit; 0 means 50 * (n + 1).
     pivot_tolerance : float
-        Column entries at or below this (relative to the column's largest) are not pivots.
+        Column entries at or below this fraction of the column's largest are not pivots.
+        Redundant (coplanar) contacts make M singular; pivoting on an entry that is only
+        round-off of a zero wrecks the tableau, which 1e-12 was seen to do on a ten-box stack
+        and 1e-7 does not.
 
     Returns
     -------
