@@ -133,6 +133,33 @@ def test_ten_cube_stack_settles_and_stays():
     assert deepest <= 1e-3
 
 
+def test_mass_ratio_stack_stands_with_the_exact_solver():
+    """Ten cubes, masses growing geometrically to 100x at the top, each offset by up to 5 mm,
+    kept awake: the exact solver holds them where they were put (pybullet's default solver
+    lets this stack collapse; see the validation stability suite)."""
+    world = floor_world(contact_solver="exact", sleeping=False)
+    offsets = np.random.default_rng(0).uniform(-0.005, 0.005, (10, 2))
+    cubes = [
+        world.add_body(
+            CUBE,
+            mass=100.0 ** (i / 9),
+            position=(*offsets[i], 0.5 + i),
+            friction=0.5,
+            restitution=0.0,
+        )
+        for i in range(10)
+    ]
+    start = np.array([world.position(c) for c in cubes])
+    deepest = 0.0
+    for _ in range(round(2 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        assert world.contact_info["lemke_fallbacks"] == 0
+    drift = np.linalg.norm([world.position(c) for c in cubes] - start, axis=1)
+    assert drift.max() < 1e-3
+    assert deepest <= 1e-3
+
+
 def test_sliding_cube_stops_at_the_coulomb_distance():
     mu, speed = 0.4, 3.0
     world = rbd.World(dt=DT, gravity=(0, 0, -G))
