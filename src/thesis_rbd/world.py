@@ -12,7 +12,10 @@ collision stages; no contact response wanted (a detection-only scene), no contac
 stages are also skipped step by step when they have nothing to do: the narrow phase when the
 broad phase found no candidate pair, the tunnelling check when no body moved further than its
 own size, the contact response when there is no contact, everything but the forces when all
-bodies sleep; a skipped stage is not called and costs nothing.
+bodies sleep; a skipped stage is not called and costs nothing. So are two more: the broad
+phase while no body left its fat box and no fat boxes overlap (``collision/bounds.py``), and
+the sleep stage while every moving body is too fast to count as still, none has been still
+and nothing touched (it would change nothing).
 """
 
 from __future__ import annotations
@@ -231,7 +234,7 @@ class World:
             static=bool(static),
             collidable=bool(collidable),
         )
-        self._collision.add_body(mesh)
+        self._collision.add_body(mesh, center)
         self._sleep.resize(self.bodies.count)
         self._plan_stages()
         return index
@@ -269,13 +272,13 @@ class World:
     @property
     def stages(self) -> list[str]:
         """Names of the stages this scene needs, in pipeline order."""
-        return [name for name, _, _ in self._pipeline]
+        return [entry[0] for entry in self._pipeline]
 
     def _plan_stages(self) -> None:
         """Derive the pipeline from the scene: only the effects it calls for.
 
-        Each entry is (name, stage, guard): a stage whose guard returns False this step is
-        skipped without being called.
+        Each entry is (name, stage, guard, profile entry): a stage whose guard returns False
+        this step is skipped without being called.
         """
         b = self.bodies
         dynamic = bool(b.count) and not bool(np.all(b.static))
@@ -294,19 +297,20 @@ class World:
             pipeline.append(("integrate", self._stage_integrate, self._any_awake))
         if collides:
             pipeline.append(("bounds", self._stage_bounds, self._any_awake))
-            pipeline.append(("broad_phase", self._stage_broad_phase, self._any_awake))
+            pipeline.append(("broad_phase", self._stage_broad_phase, self._broad_phase_due))
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
             pipeline.append(("tunnelling", self._stage_tunnelling, self._has_fast_bodies))
             if self.contact_response:
                 pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
         if collides and self._sleep.settings.enabled:
             # bodies come to rest through contact: without collisions nothing would sleep
-            pipeline.append(("sleep", self._stage_sleep, self._any_awake))
-        self._pipeline = pipeline
+            pipeline.append(("sleep", self._stage_sleep, self._sleep_due))
+        self._pipeline = [(*entry, self.profile[entry[0]]) for entry in pipeline]
         self._collision_planned = collides
-        self._fast = np.zeros(b.count, bool)
+        self._collision.plan(b.static, collidable)
         self._start_position = b.position.copy()
         self._start_orientation = b.orientation.copy()
+        self._sleep_changed()
         self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
@@ -317,14 +321,12 @@ class World:
         """Advance the world by ``n`` steps of ``dt``."""
         if int(n) != n or n < 0:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
-        profile = self.profile
         for _ in range(int(n)):
-            for name, stage, guard in self._pipeline:
+            for _name, stage, guard, entry in self._pipeline:
                 if not guard():
                     continue
                 start = perf_counter()
                 stage()
-                entry = profile[name]
                 entry["seconds"] += perf_counter() - start
                 entry["calls"] += 1
             self.time += self.dt
@@ -342,28 +344,27 @@ class World:
         if len(applied) == 0:
             self._stale_plan = True  # the last applied force ran out: replan after this step
 
-    def _any_awake(self) -> bool:
-        return not self._sleep.any_asleep or not bool(
-            np.all(self.bodies.static | self._sleep.asleep)
-        )
+    def _sleep_changed(self) -> None:
+        """Refresh what depends on who sleeps: called whenever a body falls asleep or wakes.
 
-    def _resting(self) -> np.ndarray:
-        """(n,) bool: bodies that do not move this step (static or asleep)."""
-        return self.bodies.static | self._sleep.asleep
+        ``_frozen`` (n,) bool marks the bodies that do not move this step (static or asleep);
+        ``_awake`` says whether any body moves at all.
+        """
+        self._frozen = self.bodies.static | self._sleep.asleep
+        self._awake = not bool(np.all(self._frozen))
+
+    def _any_awake(self) -> bool:
+        return self._awake
 
     def _stage_integrate(self) -> None:
         """Advance free motion of every dynamic body by one step."""
         b = self.bodies
         pf = self._point_forces
-        if self._collision_planned:
-            # where the step started: fast bodies are swept from here (no tunnelling)
-            self._start_position = b.position.copy()
-            self._start_orientation = b.orientation.copy()
         integrate_bodies(
             INTEGRATORS[self.integrator],
             self.dt,
             b.count,
-            self._resting(),
+            self._frozen,
             b.full("position"),
             b.full("orientation"),
             b.full("linear_momentum"),
@@ -375,34 +376,36 @@ class World:
             pf.start,
             pf.arm,
             pf.force,
+            # where the step started: fast bodies are swept from here (no tunnelling)
+            self._collision_planned,
+            self._start_position,
+            self._start_orientation,
         )
 
     def _stage_bounds(self) -> None:
-        """World AABB of every body; a fast body's box covers its whole step."""
-        b = self.bodies
-        travel = np.linalg.norm(b.position - self._start_position, axis=1)
-        # "further in one step than its own size" (size = bounding radius about the centre)
-        self._fast = travel > b.size
-        swept = None
-        if self._fast.any():
-            swept = (self._fast, self._start_position, self._start_orientation)
-        self._collision.bounds(b, np.zeros(b.count), swept_from=swept)
+        """Fast bodies (moved further than their own size) and fat boxes, refitted if a
+        moving body left its own."""
+        self._collision.bounds(self.bodies, self._frozen, self._start_position, self.dt)
 
     def _has_fast_bodies(self) -> bool:
-        return self._any_awake() and bool(self._fast.any())
+        return self._awake and self._collision.fast_count > 0
 
     def _stage_tunnelling(self) -> None:
         """Time-of-impact sampling for fast bodies only: put back what passed through."""
         self._collision.sweep(
-            self.bodies, self._fast, self._start_position, self._start_orientation
+            self.bodies, self._collision.fast, self._start_position, self._start_orientation
         )
 
+    def _broad_phase_due(self) -> bool:
+        return self._awake and self._collision.broad_phase_due
+
     def _stage_broad_phase(self) -> None:
-        """Sweep-and-prune: candidate pairs with at least one moving body."""
-        self._collision.broad_phase(resting=self._resting(), ignored=~self.bodies.collidable)
+        """Sweep-and-prune on the fat boxes if they changed; candidate pairs with at least one
+        moving body and overlapping tight boxes."""
+        self._collision.broad_phase(self.bodies, self._frozen)
 
     def _has_candidates(self) -> bool:
-        return self._any_awake() and len(self._collision.candidate_pairs) > 0
+        return self._awake and len(self._collision.candidate_pairs) > 0
 
     def _stage_narrow_phase(self) -> None:
         """OBBTree contacts of the candidate pairs; a touched sleeping island wakes."""
@@ -410,12 +413,13 @@ class World:
         if self._sleep.any_asleep and self._sleep.wake_touched(
             self._collision.contacts, self.bodies.static
         ):
+            self._sleep_changed()
             # the woken islands' own contacts were not candidates: find them now
-            self._collision.broad_phase(resting=self._resting(), ignored=~self.bodies.collidable)
+            self._collision.broad_phase(self.bodies, self._frozen)
             self._collision.narrow_phase(self.bodies)
 
     def _has_contacts(self) -> bool:
-        return self._any_awake() and len(self._collision.contacts["depths"]) > 0
+        return self._awake and len(self._collision.contacts["depths"]) > 0
 
     def _stage_contacts(self) -> None:
         """Impulses with restitution and friction, time of impact, position projection."""
@@ -429,13 +433,20 @@ class World:
             self._collision,
         )
 
+    def _sleep_due(self) -> bool:
+        return self._awake and self._sleep.update_due(
+            self._collision.slowest_speed2, self._has_contacts()
+        )
+
     def _stage_sleep(self) -> None:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
         contacts = self._collision.contacts if self._has_contacts() else empty_contacts()
         fell = self._sleep.update(b, contacts, self.dt)
-        b.linear_momentum[fell] = 0.0
-        b.angular_momentum[fell] = 0.0
+        if len(fell):
+            b.linear_momentum[fell] = 0.0
+            b.angular_momentum[fell] = 0.0
+            self._sleep_changed()
 
     @property
     def sleeping(self) -> np.ndarray:

@@ -1,9 +1,23 @@
-"""World-space axis-aligned bounding boxes of posed meshes: the broad phase's input.
+"""World axis-aligned boxes of posed bodies: fat ones for the broad phase, tight ones for pairs.
 
-Each body's mesh has a fixed local box [lo, hi] in its mesh frame. Posed by the body's
-rotation R and the mesh-to-world translation t = x - R c, the box's centre moves to
-R (lo + hi)/2 + t and its half-extents become |R| (hi - lo)/2 (Arvo 1990): exact for the
-local box, and at most sqrt(3) times too large for the mesh, with no per-vertex work.
+A body's mesh lies in the sphere of its bounding radius r about its centre of mass x, whatever
+the body's orientation, so the box x ± r bounds it at no cost per step. The broad phase works on
+*fat* boxes (Bullet's and Box2D's enlarged AABBs): that sphere's box grown by a margin of
+``MARGIN_FRACTION`` r on every side and, on the side the body moves towards, by the distance its
+velocity predicts over ``PREDICTION_STEPS`` steps (at most r). A fat box stays put while the
+sphere's box stays inside it, which a step checks with six comparisons per body and no
+rotation; once one leaves, every moving body's fat box is refitted at once, which keeps the
+refits in step, so a scene of bodies in steady motion needs a broad-phase update only every
+``PREDICTION_STEPS`` steps or so instead of every step. A body that moved further than r in one
+step (a *fast* body) must also keep the sphere's box where the step started inside its fat box,
+so that the broad phase sees everything it passed through.
+
+Pairs of fat boxes are only candidates. The *tight* box of a body is exact for its mesh's local
+box: posed by the rotation R, the local box (centre offset o from the centre of mass,
+half-extents h) has centre x + R o and half-extents |R| h (Arvo 1990), at most sqrt(3) times
+too large for the mesh and with no per-vertex work; intersected with x ± r, and for a fast body
+joined with the sphere's box at the start of the step. ``tight_bounds`` computes it for the
+bodies of fat pairs only, and ``overlapping_pairs`` keeps the pairs whose tight boxes overlap.
 """
 
 from __future__ import annotations
@@ -13,49 +27,179 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
-__all__ = ["world_bounds"]
+__all__ = [
+    "MARGIN_FRACTION",
+    "PREDICTION_STEPS",
+    "overlapping_pairs",
+    "tight_bounds",
+    "update_fat_bounds",
+]
+
+# Fat-box margin on every side, as a fraction of the body's bounding radius: room for the
+# jitter of resting contact without a refit.
+MARGIN_FRACTION = 0.1
+# Steps of motion at the current velocity a fat box leaves room for (Box2D v2 predicts 4; more
+# steps mean rarer broad-phase updates and slightly more fat pairs to filter).
+PREDICTION_STEPS = 64
+
+
+@njit(inline="always")
+def _posed_box(R, offset, half, x, radius, lower, upper):
+    """Tight box of one posed body (Arvo box of the local box within x ± r) into the rows
+    ``lower``, ``upper`` (3,)."""
+    for a in range(3):
+        center = x[a] + R[a, 0] * offset[0] + R[a, 1] * offset[1] + R[a, 2] * offset[2]
+        extent = abs(R[a, 0]) * half[0] + abs(R[a, 1]) * half[1] + abs(R[a, 2]) * half[2]
+        lower[a] = max(center - extent, x[a] - radius)
+        upper[a] = min(center + extent, x[a] + radius)
 
 
 @njit
-def world_bounds(
-    count,
-    local_lower,
-    local_upper,
-    center_of_mass_local,
-    position,
-    orientation,
-    margin,
-    lower,
-    upper,
-):
-    """Write the world AABBs of the first ``count`` bodies into ``lower``, ``upper`` (n, 3).
+def update_fat_bounds(
+    count, everything, frozen, box_offset, box_half, radius, position, orientation,
+    start_position, linear_momentum, inverse_mass, horizon, fat, fast,
+):  # fmt: skip
+    """Find the fast bodies and check every moving body against its fat box; refit on a miss.
 
     Parameters
     ----------
     count : int
-        Number of bodies n.
-    local_lower, local_upper : (>= n, 3) float64
-        Mesh-frame bounding box of each body's mesh.
-    center_of_mass_local : (>= n, 3) float64
-        Centre of mass c in the mesh frame.
-    position : (>= n, 3) float64
-        World centre of mass x.
+        Number of bodies n (the body arrays may be longer).
+    everything : bool
+        Refit every fat box, frozen bodies' included (after a scene change).
+    frozen : (>= n,) bool
+        Bodies that did not move this step (static or asleep): their boxes are kept.
+    box_offset, box_half : (n, 3) float64
+        Mesh-frame box of each body: centre offset o from the centre of mass, half-extents h
+        (a frozen body's fat box is its tight box: it does not move).
+    radius : (>= n,) float64
+        Bounding radius r of each body's mesh about its centre of mass.
+    position, start_position : (>= n, 3) float64
+        World centre of mass now and at the start of the step.
     orientation : (>= n, 4) float64
-        (x, y, z, w) orientation.
-    margin : (>= n,) float64
-        Distance each box is grown by on every side (contact margin, swept motion).
-    lower, upper : (n, 3) float64
-        Output.
+        (x, y, z, w) orientation now.
+    linear_momentum : (>= n, 3) float64
+        P, world frame: the velocity P / M predicts the motion a fat box leaves room for.
+    inverse_mass : (>= n,) float64
+    horizon : float
+        Seconds of motion at the current velocity a refitted fat box covers.
+    fat : (2, n, 3) float64
+        [lower, upper] fat boxes, world frame; rewritten on a refit.
+    fast : (n,) bool
+        Output: moved further than its radius this step.
+
+    Returns
+    -------
+    refit : bool
+        Whether the fat boxes changed (the broad phase must be updated).
+    fast_count : int
+        Number of fast bodies.
+    slowest : float
+        Smallest squared speed |P / M|^2 of a moving body (inf if none): the sleep stage has
+        nothing to do while every body is faster than its tolerance.
+    """
+    refit = everything
+    fast_count = 0
+    slowest = np.inf
+    for i in range(count):
+        if frozen[i]:
+            fast[i] = False
+            continue
+        x, x0, r = position[i], start_position[i], radius[i]
+        travel2 = (x[0] - x0[0]) ** 2 + (x[1] - x0[1]) ** 2 + (x[2] - x0[2]) ** 2
+        is_fast = travel2 > r * r
+        fast[i] = is_fast
+        fast_count += is_fast
+        P, im = linear_momentum[i], inverse_mass[i]
+        slowest = min(slowest, (P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) * im * im)
+        for a in range(3):
+            lower, upper = x[a] - r, x[a] + r
+            if is_fast:
+                lower, upper = min(lower, x0[a] - r), max(upper, x0[a] + r)
+            refit |= (lower < fat[0, i, a]) | (upper > fat[1, i, a])
+    if refit:
+        R = np.empty((3, 3))
+        for i in range(count):
+            if not frozen[i]:
+                _fatten(i, position, start_position, linear_momentum, inverse_mass, radius,
+                        fast, horizon, fat)  # fmt: skip
+            elif everything:
+                to_matrix_into(orientation[i], R)
+                _posed_box(R, box_offset[i], box_half[i], position[i], radius[i], fat[0, i],
+                           fat[1, i])  # fmt: skip
+    return refit, fast_count, slowest
+
+
+@njit(inline="always")
+def _fatten(i, position, start_position, linear_momentum, inverse_mass, radius, fast, horizon, fat):
+    """Fat box of moving body i from its sphere's box and its velocity."""
+    x, x0, P, im, r = position[i], start_position[i], linear_momentum[i], inverse_mass[i], radius[i]
+    margin = MARGIN_FRACTION * r
+    for a in range(3):
+        lower, upper = x[a] - r, x[a] + r
+        if fast[i]:
+            lower, upper = min(lower, x0[a] - r), max(upper, x0[a] + r)
+        ahead = min(max(P[a] * im * horizon, -r), r)
+        fat[0, i, a] = lower - margin + min(ahead, 0.0)
+        fat[1, i, a] = upper + margin + max(ahead, 0.0)
+
+
+@njit
+def tight_bounds(
+    members, box_offset, box_half, radius, position, orientation, start_position, fast, tight
+):
+    """Tight boxes of the bodies ``members`` (m,) int64 into ``tight`` (2, n, 3) [lower, upper].
+
+    A fast body's box also covers the sphere's box where it started the step. The other
+    arguments are as in ``update_fat_bounds``.
     """
     R = np.empty((3, 3))
-    for i in range(count):
+    for k in range(members.shape[0]):
+        i = members[k]
         to_matrix_into(orientation[i], R)
+        _posed_box(R, box_offset[i], box_half[i], position[i], radius[i], tight[0, i], tight[1, i])
+        if fast[i]:
+            for a in range(3):
+                tight[0, i, a] = min(tight[0, i, a], start_position[i, a] - radius[i])
+                tight[1, i, a] = max(tight[1, i, a], start_position[i, a] + radius[i])
+
+
+@njit
+def overlapping_pairs(pairs, tight, resting):
+    """The pairs whose tight boxes overlap and that have a moving body.
+
+    Parameters
+    ----------
+    pairs : (p, 2) int64
+        Body pairs (of overlapping fat boxes).
+    tight : (2, n, 3) float64
+        [lower, upper] tight boxes of (at least) the bodies of ``pairs``; closed intervals, so
+        touching boxes overlap.
+    resting : (n,) bool
+        Bodies that do not move this step: two of them cannot make a new contact.
+
+    Returns
+    -------
+    (q, 2) int64
+        The kept rows of ``pairs``, in order.
+    """
+    keep = np.zeros(pairs.shape[0], np.bool_)
+    kept = 0
+    for k in range(pairs.shape[0]):
+        i, j = pairs[k, 0], pairs[k, 1]
+        if resting[i] and resting[j]:
+            continue
+        overlap = True
         for a in range(3):
-            center = position[i, a]
-            half = margin[i]
-            for b in range(3):
-                local_center = 0.5 * (local_lower[i, b] + local_upper[i, b])
-                center += R[a, b] * (local_center - center_of_mass_local[i, b])
-                half += abs(R[a, b]) * 0.5 * (local_upper[i, b] - local_lower[i, b])
-            lower[i, a] = center - half
-            upper[i, a] = center + half
+            if tight[0, i, a] > tight[1, j, a] or tight[0, j, a] > tight[1, i, a]:
+                overlap = False
+                break
+        keep[k] = overlap
+        kept += overlap
+    out = np.empty((kept, 2), np.int64)
+    row = 0
+    for k in range(pairs.shape[0]):
+        if keep[k]:
+            out[row, 0], out[row, 1] = pairs[k, 0], pairs[k, 1]
+            row += 1
+    return out

@@ -1,21 +1,33 @@
 """The detection stages of a world step: bounds -> broad phase -> narrow phase.
 
-Rapier-style, the stages talk through explicit arrays: ``bounds`` writes one world AABB per
-body, ``broad_phase`` keeps the sweep-and-prune pair cache current and turns it into the
-candidate pairs worth testing (never static-static, never two resting bodies), and
-``narrow_phase`` turns candidates into contacts (``contacts`` dict, world frame, normals from
-body_b towards body_a).
+Rapier-style, the stages talk through explicit arrays: ``bounds`` checks every moving body
+against the fat box the broad phase keeps for it and refits the fat boxes when one was left
+(``bounds.py``); ``broad_phase`` brings the sweep-and-prune pair cache up to date only when the
+fat boxes changed, and turns its pairs into the candidate pairs worth testing (tight boxes
+overlap, never static-static, never two resting bodies); ``narrow_phase`` turns candidates
+into contacts (``contacts`` dict, world frame, normals from body_b towards body_a). Fat boxes
+only add pairs for the tight-box test, so the candidates are those of a broad phase on tight
+boxes, at the price of one sweep-and-prune update every few dozen steps.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd.collision.bounds import world_bounds
+from thesis_rbd.collision.bounds import (
+    PREDICTION_STEPS,
+    overlapping_pairs,
+    tight_bounds,
+    update_fat_bounds,
+)
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
 
 __all__ = ["CollisionPipeline", "empty_contacts"]
+
+_NO_BODIES = np.zeros(0, np.int64)
+_NO_PAIRS = np.zeros((0, 2), np.int64)
+_NO_BODIES.flags.writeable = _NO_PAIRS.flags.writeable = False
 
 
 def empty_contacts() -> dict[str, np.ndarray]:
@@ -39,8 +51,24 @@ class CollisionPipeline:
         The distinct meshes' trees.
     geometry_of_body : (n,) int64
         Tree index of each body.
-    lower, upper : (n, 3) float64
-        World AABBs from the last ``bounds`` stage.
+    box_offset, box_half : (n, 3) float64
+        Mesh-frame box of each body: centre offset from the centre of mass, half-extents.
+    fat : (2, n, 3) float64
+        [lower, upper] fat world boxes, as the broad phase knows them.
+    tight : (2, n, 3) float64
+        [lower, upper] tight world boxes of the bodies of fat pairs from the last
+        ``broad_phase`` stage (a fast body's covers its whole step); other rows are stale.
+    fast : (n,) bool
+        Bodies that moved further than their radius in the last step.
+    fast_count : int
+        Number of them.
+    slowest_speed2 : float
+        Smallest squared speed of a moving dynamic body at the last ``bounds`` stage.
+    fat_pairs : (f, 2) int64
+        Pairs of overlapping fat boxes that may ever collide (both collidable, not both
+        static), from the last sweep-and-prune update.
+    pair_members : (m,) int64
+        The bodies of ``fat_pairs``.
     candidate_pairs : (p, 2) int64
         Body pairs for the narrow phase from the last ``broad_phase`` stage.
     contacts : dict of arrays
@@ -52,48 +80,82 @@ class CollisionPipeline:
     def __init__(self):
         self.geometry = GeometrySet()
         self.geometry_of_body = np.zeros(0, np.int64)
-        self.local_lower = np.zeros((0, 3))
-        self.local_upper = np.zeros((0, 3))
+        self.box_offset = np.zeros((0, 3))
+        self.box_half = np.zeros((0, 3))
         self.sap = SweepAndPrune()
-        self.lower = np.zeros((0, 3))
-        self.upper = np.zeros((0, 3))
+        self.tight = np.zeros((2, 0, 3))
+        self.fat = np.zeros((2, 0, 3))
+        self.fast = np.zeros(0, bool)
+        self.fast_count = 0
+        self.slowest_speed2 = 0.0
+        self.fat_pairs = np.zeros((0, 2), np.int64)
+        self.pair_members = np.zeros(0, np.int64)
         self.candidate_pairs = np.zeros((0, 2), np.int64)
         self.contacts = empty_contacts()
         self.stats: dict[str, int] = {}
+        self._may_pair = np.zeros(0, bool)
+        self._static = np.zeros(0, bool)
+        self._refit_all = True
+        self._fat_changed = False
+        self._start_position = np.zeros((0, 3))
 
-    def add_body(self, mesh) -> None:
-        """Register the next body's mesh (its tree is shared with bodies of the same mesh)."""
+    def add_body(self, mesh, center_of_mass_local) -> None:
+        """Register the next body's mesh (its tree is shared with bodies of the same mesh).
+
+        ``center_of_mass_local`` (3,) is the body's centre of mass in the mesh frame.
+        """
         g = self.geometry.geometry_of(mesh)
         self.geometry_of_body = np.append(self.geometry_of_body, g)
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
-        self.local_lower = np.vstack([self.local_lower, self.geometry.local_lower[g]])
-        self.local_upper = np.vstack([self.local_upper, self.geometry.local_upper[g]])
+        lower, upper = self.geometry.local_lower[g], self.geometry.local_upper[g]
+        self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
+        self.box_half = np.vstack([self.box_half, 0.5 * (upper - lower)])
 
-    def bounds(self, bodies, margin: np.ndarray, swept_from=None) -> None:
-        """World AABB of every body, grown by ``margin`` (n,).
+    def plan(self, static: np.ndarray, collidable: np.ndarray) -> None:
+        """Take the bodies as they are now; the next ``bounds`` fits every box afresh.
 
-        ``swept_from`` = (fast (n,) bool, start position (n, 3), start orientation (n, 4)):
-        the boxes of fast bodies also cover where they started the step, so the broad phase
-        sees what they passed through.
+        Parameters
+        ----------
+        static : (n,) bool
+            Immovable bodies: a pair of two of them is never a candidate.
+        collidable : (n,) bool
+            Bodies inside collision detection: no pair of the others is a candidate.
         """
-        n = bodies.count
-        if self.lower.shape[0] != n:
-            self.lower, self.upper = np.empty((n, 3)), np.empty((n, 3))
-        local_lower, local_upper = self.local_lower, self.local_upper
-        com = bodies.full("center_of_mass_local")
-        world_bounds(
-            n, local_lower, local_upper, com, bodies.full("position"),
-            bodies.full("orientation"), margin, self.lower, self.upper,
+        n = len(static)
+        self._static = static.copy()
+        self._may_pair = collidable.copy()
+        if self.tight.shape[1] != n:
+            self.tight, self.fat = np.zeros((2, n, 3)), np.zeros((2, n, 3))
+            self.fast = np.zeros(n, bool)
+        self._refit_all = True
+
+    def bounds(self, bodies, frozen, start_position, dt) -> None:
+        """Find the fast bodies; refit the fat boxes if a moving body left its own.
+
+        Parameters
+        ----------
+        bodies : BodyArrays
+        frozen : (n,) bool
+            Bodies that did not move this step (static or asleep).
+        start_position : (n, 3) float64
+            Centres of mass at the start of the step: a fast body's boxes cover its whole step.
+        dt : float
+            Step length (s); fat boxes leave room for ``PREDICTION_STEPS`` steps of motion.
+        """
+        b = bodies
+        self._start_position = start_position
+        refit, self.fast_count, self.slowest_speed2 = update_fat_bounds(
+            b.count, self._refit_all, frozen, self.box_offset, self.box_half, b.full("size"),
+            b.full("position"), b.full("orientation"), start_position, b.full("linear_momentum"),
+            b.full("inverse_mass"), PREDICTION_STEPS * dt, self.fat, self.fast,
         )  # fmt: skip
-        if swept_from is not None:
-            fast, start_position, start_orientation = swept_from
-            lower, upper = np.empty((n, 3)), np.empty((n, 3))
-            world_bounds(
-                n, local_lower, local_upper, com, start_position, start_orientation, margin,
-                lower, upper,
-            )  # fmt: skip
-            self.lower[fast] = np.minimum(self.lower[fast], lower[fast])
-            self.upper[fast] = np.maximum(self.upper[fast], upper[fast])
+        self._refit_all = False
+        self._fat_changed |= refit
+
+    @property
+    def broad_phase_due(self) -> bool:
+        """Whether ``broad_phase`` has work: fat boxes changed, or fat pairs to filter."""
+        return self._fat_changed or len(self.fat_pairs) > 0
 
     def sweep(self, bodies, fast, start_position, start_orientation) -> int:
         """Catch fast bodies that passed through something during the step.
@@ -144,29 +206,39 @@ class CollisionPipeline:
             }
         return len(caught)
 
-    def broad_phase(self, resting: np.ndarray, ignored: np.ndarray | None = None) -> None:
-        """Update the pair cache; keep the pairs with at least one moving dynamic body.
+    def broad_phase(self, bodies, resting: np.ndarray) -> None:
+        """Update the pair cache if the fat boxes changed; keep the pairs worth testing.
 
-        Parameters
-        ----------
-        ignored : (n,) bool, optional
-            Bodies outside collision detection: no pair of theirs is a candidate.
-        resting : (n,) bool
-            Bodies that do not move this step (static or asleep): a pair of two of them
-            cannot produce a new contact.
+        Candidates are the fat pairs whose tight boxes overlap and that have a body not in
+        ``resting`` (n,) bool (static or asleep: a pair of two of them cannot produce a new
+        contact).
         """
-        n = len(self.lower)
-        known = len(self.sap)
-        if known < n:
-            self.sap.add(self.lower[known:], self.upper[known:])
-        self.sap.update(self.lower, self.upper, check=False)  # kernel bounds: finite, lo <= hi
-        pairs = self.sap.pairs
-        keep = ~(resting[pairs[:, 0]] & resting[pairs[:, 1]])
-        if ignored is not None:
-            keep &= ~(ignored[pairs[:, 0]] | ignored[pairs[:, 1]])
-        self.candidate_pairs = np.ascontiguousarray(pairs[keep])
+        if self._fat_changed:
+            lower, upper = self.fat[0], self.fat[1]
+            known = len(self.sap)
+            if known < len(lower):
+                self.sap.add(lower[known:], upper[known:])
+            self.sap.update(lower, upper, check=False)  # kernel bounds: finite, lo <= hi
+            pairs = self.sap.pairs
+            if len(pairs):  # (most refits of a sparse scene find none: no array work then)
+                i, j = pairs[:, 0], pairs[:, 1]
+                may, static = self._may_pair, self._static
+                pairs = pairs[may[i] & may[j] & ~(static[i] & static[j])]
+            self.fat_pairs = pairs
+            self.pair_members = np.unique(pairs) if len(pairs) else _NO_BODIES
+            self._fat_changed = False
+        if len(self.fat_pairs):
+            b = bodies
+            tight_bounds(
+                self.pair_members, self.box_offset, self.box_half, b.full("size"),
+                b.full("position"), b.full("orientation"), self._start_position, self.fast,
+                self.tight,
+            )  # fmt: skip
+            self.candidate_pairs = overlapping_pairs(self.fat_pairs, self.tight, resting)
+        else:
+            self.candidate_pairs = _NO_PAIRS
         self.stats["candidate_pairs"] = len(self.candidate_pairs)
-        if len(self.candidate_pairs) == 0:
+        if len(self.candidate_pairs) == 0 and len(self.contacts["depths"]):
             self.contacts = empty_contacts()  # the narrow phase will not run this step
 
     def narrow_phase(self, bodies) -> None:

@@ -109,6 +109,9 @@ def integrate_bodies(
     pf_start,
     pf_arm,
     pf_force,
+    save_start,
+    start_position,
+    start_orientation,
 ):
     """Advance every non-frozen body by one step of length dt, in place.
 
@@ -134,6 +137,11 @@ def integrate_bodies(
         Linear, quadratic and angular drag coefficients.
     pf_start, pf_arm, pf_force
         Point forces in CSR layout (see ``forces.PointForces``).
+    save_start : bool
+        Also write where each moved body started the step into ``start_position`` and
+        ``start_orientation`` ((>= n, 3), (>= n, 4) float64): the collision stages sweep fast
+        bodies from there. Saved here because x and q pass through registers anyway, so it
+        costs no second pass over the bodies.
     """
     h = dt
     # short local names keep the stage lines readable
@@ -147,6 +155,11 @@ def integrate_bodies(
         q0 = (orientation[i, 0], orientation[i, 1], orientation[i, 2], orientation[i, 3])
         P0 = (linear_momentum[i, 0], linear_momentum[i, 1], linear_momentum[i, 2])
         L0 = (angular_momentum[i, 0], angular_momentum[i, 1], angular_momentum[i, 2])
+        if save_start:
+            for k in range(3):
+                start_position[i, k] = x0[k]
+            for k in range(4):
+                start_orientation[i, k] = q0[k]
 
         if method == 0:  # explicit Euler
             v1, dq1, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)

@@ -9,6 +9,11 @@ nothing (Box2D's and Bullet's islands sleep the same way).
 
 An island wakes as a whole when an awake body touches one of its bodies, or when a force is
 applied to one of them; the island a body slept in is remembered for that.
+
+While every awake body moves faster than ``linear_tolerance``, none has been still and no
+contact changed a velocity, an update would only keep every still-time at zero:
+``SleepState.update_due`` says so, and the world then does not run the stage at all (a scene
+in steady motion pays nothing for sleeping).
 """
 
 from __future__ import annotations
@@ -107,6 +112,8 @@ class SleepState:
         self.still = np.zeros(0)
         self.island = np.zeros(0, np.int64)
         self._next_label = 0
+        # whether an awake body may have a nonzero still-time (False only when none has)
+        self._still_any = False
 
     def resize(self, count: int) -> None:
         """Make room for newly added bodies (they start awake)."""
@@ -119,6 +126,27 @@ class SleepState:
     @property
     def any_asleep(self) -> bool:
         return bool(self.asleep.any())
+
+    def update_due(self, slowest_speed2: float, touching: bool) -> bool:
+        """Whether ``update`` could change anything this step.
+
+        Parameters
+        ----------
+        slowest_speed2 : float
+            Smallest squared speed (m^2/s^2) of an awake dynamic body, measured after the
+            integration.
+        touching : bool
+            Whether there are contacts this step (the contact response changes velocities
+            after they were measured, and contacts join islands).
+
+        Returns
+        -------
+        bool
+            False when every awake body is too fast to be still and none has been: the update
+            would keep every still-time at zero and put nobody to sleep.
+        """
+        tolerance = self.settings.linear_tolerance
+        return touching or self._still_any or slowest_speed2 <= tolerance * tolerance
 
     def wake(self, bodies: np.ndarray) -> None:
         """Wake the islands the given body indices slept in."""
@@ -168,6 +196,7 @@ class SleepState:
             bodies.full("inverse_inertia_body"), self.still, dt, s.linear_tolerance,
             s.angular_tolerance,
         )  # fmt: skip
+        self._still_any = longest > 0.0
         if longest < s.time_to_sleep:
             return np.zeros(0, np.int64)  # nobody has been still long enough: no island work
         body_island, _, _ = find_islands(n, contacts["body_a"], contacts["body_b"], static)
