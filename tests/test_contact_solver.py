@@ -189,6 +189,25 @@ def test_exact_solution_satisfies_the_contact_conditions(seed, count):
         assert tangential <= friction[k] * impulse[k, 0] + 1e-9 * scale
 
 
+def kinetic_energy(v, w, masses, inertias):
+    return sum(
+        0.5 * m * vi @ vi + 0.5 * wi @ I @ wi
+        for m, vi, wi, I in zip(masses, v, w, inertias, strict=True)
+    )
+
+
+@given(st.integers(0, 10**6), st.integers(1, 5))
+def test_exact_solution_never_adds_more_energy_than_its_bias_allows(seed, count):
+    """Complementarity bounds the energy change of any exact answer by -sum lambda_n bias
+    (sliding friction only removes energy); checked here from the body velocities."""
+    contacts, bias, friction, v, w, im, ii, _, m, inertias = random_free_bodies(seed, count)
+    before = kinetic_energy(v, w, m, inertias)
+    impulse, status = solve("exact", contacts, bias, friction, v, w, im, ii)
+    assume(status == 0)
+    allowed = -(impulse[:, 0] @ bias)
+    assert kinetic_energy(v, w, m, inertias) - before <= allowed + 1e-9 * (1 + before)
+
+
 @given(st.integers(0, 10**6), st.integers(1, 4))
 def test_pgs_converges_to_the_exact_velocities_without_friction(seed, count):
     """Frictionless, the LCP is monotone and the velocities after it are unique, so PGS must
