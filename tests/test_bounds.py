@@ -2,7 +2,7 @@
 refits are rare in steady motion, and the candidate pairs are those of an all-pairs test."""
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from reference_broad_phase import brute_force_pairs
 from scipy.spatial.transform import Rotation
@@ -43,7 +43,6 @@ def fit_fat_boxes(world, frozen, everything=True):
     return (*result, fat, fast)
 
 
-@settings(deadline=None)
 @given(st.integers(0, 10**6))
 def test_tight_box_contains_the_posed_mesh_and_fat_box_the_tight_one(seed):
     rng = np.random.default_rng(seed)

@@ -5,6 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
+from validation.bench_effects import far_apart_world
 
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))  # I = m/6 about every axis
 
@@ -207,3 +208,27 @@ def test_stages_with_nothing_to_do_are_not_called():
     assert calls["narrow_phase"] == calls["tunnelling"] == calls["contacts"] == 0
     assert calls["sleep"] == 0
     assert world.profile["narrow_phase"]["seconds"] == 0.0
+
+
+def test_a_scene_pays_only_for_the_stages_it_uses():
+    """Issue 6: 1000 far-apart bodies without gravity. Forces, narrow phase, tunnelling,
+    contacts and sleep are never called; the broad phase only when a body leaves its fat box,
+    on a small fraction of the steps. (What that is worth in time, a full step against the
+    integration alone, is measured by validation/bench_effects.py.)"""
+    world = far_apart_world()
+    assert world.stages == [
+        "integrate",
+        "bounds",
+        "broad_phase",
+        "narrow_phase",
+        "tunnelling",
+        "contacts",
+        "sleep",
+    ]
+    world.step(480)
+    calls = {name: entry["calls"] for name, entry in world.profile.items()}
+    assert calls["integrate"] == calls["bounds"] == 481
+    for skipped in ("forces", "narrow_phase", "tunnelling", "contacts", "sleep"):
+        assert calls[skipped] == 0, skipped
+        assert world.profile[skipped]["seconds"] == 0.0
+    assert 1 < calls["broad_phase"] <= 481 // 40

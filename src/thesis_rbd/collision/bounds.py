@@ -40,7 +40,7 @@ __all__ = [
 MARGIN_FRACTION = 0.1
 # Steps of motion at the current velocity a fat box leaves room for (Box2D v2 predicts 4; more
 # steps mean rarer broad-phase updates and slightly more fat pairs to filter).
-PREDICTION_STEPS = 64
+PREDICTION_STEPS = 128
 
 
 @njit(inline="always")
