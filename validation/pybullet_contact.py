@@ -1,4 +1,4 @@
-"""pybullet peers for contact scenes: a bouncing ball and a grid of falling cubes.
+"""pybullet peers for contact scenes: a bouncing ball, grids of cubes, the stability suite's scenes.
 
 pybullet is configured as its issue #3094 advises for faithful restitution: contact
 processing threshold 0, restitution velocity threshold 0, no warm starting, split impulse on,
@@ -21,8 +21,8 @@ class PybulletScene:
         Fixed time step.
     gravity : float
         Magnitude of g along -z.
-    floor_half_extents : (3,) float
-        Half sizes of the floor box.
+    floor_half_extents : (3,) float or None
+        Half sizes of the floor box; None builds no floor (add static boxes instead).
     floor_restitution, floor_friction : float
     """
 
@@ -48,10 +48,12 @@ class PybulletScene:
             useSplitImpulse=1,
             physicsClientId=c,
         )
-        half = np.asarray(floor_half_extents, float)
-        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half.tolist(), physicsClientId=c)
-        self.floor = p.createMultiBody(0, shape, basePosition=[0, 0, -half[2]], physicsClientId=c)
-        self._set_material(self.floor, floor_restitution, floor_friction)
+        self.floor = None
+        if floor_half_extents is not None:
+            half = np.asarray(floor_half_extents, float)
+            self.floor = self.add_box(
+                half, 0.0, (0, 0, -half[2]), floor_restitution, floor_friction
+            )
 
     def _set_material(self, body: int, restitution: float, friction: float) -> None:
         self.p.changeDynamics(
@@ -75,14 +77,34 @@ class PybulletScene:
         self._set_material(body, restitution, friction)
         return body
 
-    def add_box(self, half_extents, mass, position, restitution=0.0, friction=0.0) -> int:
-        shape = self.p.createCollisionShape(
-            self.p.GEOM_BOX, halfExtents=list(half_extents), physicsClientId=self.client
+    def add_box(
+        self,
+        half_extents,
+        mass,
+        position,
+        restitution=0.0,
+        friction=0.0,
+        orientation=(0.0, 0.0, 0.0, 1.0),
+        linear_velocity=(0.0, 0.0, 0.0),
+        angular_velocity=(0.0, 0.0, 0.0),
+    ) -> int:
+        """A box body (mass 0: static); orientation (x, y, z, w), velocities in the world."""
+        p, c = self.p, self.client
+        shape = p.createCollisionShape(
+            p.GEOM_BOX, halfExtents=[float(h) for h in half_extents], physicsClientId=c
         )
-        body = self.p.createMultiBody(
-            mass, shape, basePosition=list(position), physicsClientId=self.client
+        body = p.createMultiBody(
+            float(mass),
+            shape,
+            basePosition=[float(x) for x in position],
+            baseOrientation=[float(x) for x in orientation],
+            physicsClientId=c,
         )
         self._set_material(body, restitution, friction)
+        if mass > 0:
+            p.resetBaseVelocity(
+                body, list(linear_velocity), list(angular_velocity), physicsClientId=c
+            )
         return body
 
     def step(self, n: int = 1) -> None:
@@ -92,8 +114,19 @@ class PybulletScene:
     def position(self, body: int) -> np.ndarray:
         return np.array(self.p.getBasePositionAndOrientation(body, physicsClientId=self.client)[0])
 
+    def orientation(self, body: int) -> np.ndarray:
+        return np.array(self.p.getBasePositionAndOrientation(body, physicsClientId=self.client)[1])
+
     def velocity(self, body: int) -> np.ndarray:
         return np.array(self.p.getBaseVelocity(body, physicsClientId=self.client)[0])
+
+    def angular_velocity(self, body: int) -> np.ndarray:
+        return np.array(self.p.getBaseVelocity(body, physicsClientId=self.client)[1])
+
+    def max_penetration(self) -> float:
+        """Deepest overlap (m) among the contact points of the last step; 0 without any."""
+        points = self.p.getContactPoints(physicsClientId=self.client)
+        return max((-point[8] for point in points), default=0.0)  # [8]: signed distance
 
     def close(self) -> None:
         self.p.disconnect(physicsClientId=self.client)

@@ -31,10 +31,13 @@ from validation.studies import (
     dzhanibekov,
     fcl_crosscheck,
     free_flight_benchmarks,
+    impact_handling,
     integrators,
+    lcp_vs_pgs,
     long_runs,
     obb_vs_aabb,
     obbtree_variants,
+    stability_suite,
 )
 
 __all__ = ["STUDIES", "get_study"]
@@ -50,6 +53,9 @@ STUDIES: dict[str, ModuleType] = {
         obbtree_variants,
         obb_vs_aabb,
         fcl_crosscheck,
+        impact_handling,
+        lcp_vs_pgs,
+        stability_suite,
     )
 }
 

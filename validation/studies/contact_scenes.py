@@ -1,0 +1,231 @@
+"""Contact scenes described once as data and built in thesis_rbd or in pybullet.
+
+A :class:`SceneSpec` is a list of :class:`BodySpec` (boxes and spheres, static or dynamic);
+:func:`build_world` turns it into a :class:`thesis_rbd.World` and :func:`build_pybullet` into
+a :class:`validation.pybullet_contact.PybulletScene`, body i of the spec being body i of
+either, so a study reads the same body in both engines. The factories below are the resting
+and impact scenes the contact studies share: stacks, pyramids, leaning plates, piles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+__all__ = [
+    "BodySpec",
+    "SceneSpec",
+    "build_pybullet",
+    "build_world",
+    "card_house",
+    "cube_stack",
+    "elastic_pile",
+    "floor",
+    "pyramid",
+    "thin_plate",
+]
+
+G = 9.81
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """One body of a scene.
+
+    Parameters
+    ----------
+    shape : {"box", "sphere"}
+    size : tuple of float
+        Box extents (3,), or the sphere's (radius,).
+    mass : float or None
+        None makes the body static.
+    position : (3,) float
+        Centre (of mass) in the world.
+    orientation : (4,) float
+        (x, y, z, w).
+    linear_velocity, angular_velocity : (3,) float
+    restitution, friction : float
+    """
+
+    shape: str
+    size: tuple
+    mass: float | None
+    position: tuple
+    orientation: tuple = (0.0, 0.0, 0.0, 1.0)
+    linear_velocity: tuple = (0.0, 0.0, 0.0)
+    angular_velocity: tuple = (0.0, 0.0, 0.0)
+    restitution: float = 0.0
+    friction: float = 0.5
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A scene: its bodies and the gravity along -z."""
+
+    bodies: list = field(default_factory=list)
+    gravity: float = G
+
+    def dynamic(self) -> list[int]:
+        """Indices of the dynamic bodies."""
+        return [i for i, b in enumerate(self.bodies) if b.mass is not None]
+
+
+def _mesh(body: BodySpec):
+    import thesis_rbd as rbd
+
+    if body.shape == "box":
+        return rbd.shapes.box(body.size)
+    return rbd.shapes.icosphere(body.size[0], 3)
+
+
+def build_world(spec: SceneSpec, dt: float, **options):
+    """The scene as a :class:`thesis_rbd.World`; ``options`` go to the World."""
+    import thesis_rbd as rbd
+
+    world = rbd.World(dt=dt, gravity=(0.0, 0.0, -spec.gravity), **options)
+    for body in spec.bodies:
+        world.add_body(
+            _mesh(body),
+            mass=body.mass,
+            static=body.mass is None,
+            position=body.position,
+            orientation=body.orientation,
+            linear_velocity=body.linear_velocity,
+            angular_velocity=body.angular_velocity,
+            restitution=body.restitution,
+            friction=body.friction,
+        )
+    return world
+
+
+def build_pybullet(spec: SceneSpec, dt: float):
+    """The scene in pybullet, configured per pybullet issue #3094 (see ``pybullet_contact``)."""
+    from validation.pybullet_contact import PybulletScene
+
+    scene = PybulletScene(dt, gravity=spec.gravity, floor_half_extents=None)
+    for body in spec.bodies:
+        mass = 0.0 if body.mass is None else body.mass
+        if body.shape == "box":
+            scene.add_box(
+                0.5 * np.asarray(body.size),
+                mass,
+                body.position,
+                body.restitution,
+                body.friction,
+                orientation=body.orientation,
+                linear_velocity=body.linear_velocity,
+                angular_velocity=body.angular_velocity,
+            )
+        else:
+            sphere = scene.add_sphere(
+                body.size[0], mass, body.position, body.restitution, body.friction
+            )
+            scene.p.resetBaseVelocity(
+                sphere,
+                list(body.linear_velocity),
+                list(body.angular_velocity),
+                physicsClientId=scene.client,
+            )
+    return scene
+
+
+def floor(size: float = 4.0, centre=(0.0, 0.0), restitution=0.0, friction=0.5) -> BodySpec:
+    """A static floor box, ``size`` wide and a tenth as thick, its top face at z = 0."""
+    thickness = max(size / 10.0, 1e-3)
+    return BodySpec(
+        "box",
+        (size, size, thickness),
+        None,
+        (centre[0], centre[1], -thickness / 2),
+        restitution=restitution,
+        friction=friction,
+    )
+
+
+def cube_stack(
+    count=10, mass_ratio=1.0, offset=0.0, edge=1.0, origin=(0.0, 0.0), seed=0
+) -> SceneSpec:
+    """``count`` cubes touching in a column on a floor; masses grow geometrically from 1 kg
+    at the bottom to ``mass_ratio`` kg at the top; each cube is shifted sideways by up to
+    ``offset`` (uniform, seeded) so the column is not perfectly aligned."""
+    shifts = np.random.default_rng(seed).uniform(-offset, offset, (count, 2))
+    bodies = [floor(max(4.0 * edge, 4.0), origin)]
+    for i in range(count):
+        mass = mass_ratio ** (i / (count - 1)) if count > 1 else 1.0
+        position = (origin[0] + shifts[i, 0], origin[1] + shifts[i, 1], edge * (0.5 + i))
+        bodies.append(BodySpec("box", (edge, edge, edge), mass, position))
+    return SceneSpec(bodies)
+
+
+def pyramid(rows=4, gap=0.1) -> SceneSpec:
+    """A 2D pyramid of unit cubes: ``rows`` at the bottom, each row above centred on the
+    gaps of the one below, every cube resting on two."""
+    bodies = [floor(2.0 * rows + 4.0)]
+    pitch = 1.0 + gap
+    for r in range(rows):
+        for i in range(rows - r):
+            x = (i - (rows - r - 1) / 2) * pitch
+            bodies.append(BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, 0.0, 0.5 + r)))
+    return SceneSpec(bodies)
+
+
+def card_house(angle_degrees=20.0, height=1.0, thickness=0.02, friction=0.6) -> SceneSpec:
+    """Two plates (``thickness`` x 1 x ``height`` m, 0.5 kg) leaning against each other like
+    a house of cards, each tilted by ``angle_degrees`` from the vertical, their top edges
+    touching at x = 0 and their bottom edges on the floor."""
+    bodies = [floor(4.0, friction=friction)]
+    half = 0.5 * np.array([thickness, 1.0, height])
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    for side in (-1.0, 1.0):
+        rotation = Rotation.from_euler("y", -side * math.radians(angle_degrees))
+        world_corners = rotation.apply(corners * half)
+        # lowest corner on the floor; the innermost corner at x = 0
+        inner = world_corners[:, 0].max() if side < 0 else world_corners[:, 0].min()
+        centre = (-inner, 0.0, -world_corners[:, 2].min())
+        bodies.append(
+            BodySpec(
+                "box",
+                (thickness, 1.0, height),
+                0.5,
+                centre,
+                orientation=tuple(rotation.as_quat()),
+                friction=friction,
+            )
+        )
+    return SceneSpec(bodies)
+
+
+def thin_plate(speed=30.0, thickness=0.01, height=1.0) -> SceneSpec:
+    """A 0.6 x 0.6 m plate ``thickness`` thick falling flat at ``speed`` m/s onto a floor."""
+    return SceneSpec(
+        [
+            floor(4.0),
+            BodySpec(
+                "box",
+                (0.6, 0.6, thickness),
+                1.0,
+                (0.0, 0.0, height),
+                linear_velocity=(0.0, 0.0, -speed),
+            ),
+        ]
+    )
+
+
+def elastic_pile(radius=0.25, layers=2) -> SceneSpec:
+    """Frictionless balls of restitution 1 in square layers (3 x 3, 2 x 2, ...) nested into
+    each other's gaps, dropped from 0.5 m onto a floor of restitution 1."""
+    bodies = [floor(4.0, restitution=1.0, friction=0.0)]
+    pitch = 2.0 * radius * 1.02
+    for layer in range(layers):
+        side = 3 - layer
+        z = 0.5 + radius + layer * pitch * math.sqrt(0.5)
+        for i in range(side):
+            for j in range(side):
+                x, y = (i - (side - 1) / 2) * pitch, (j - (side - 1) / 2) * pitch
+                bodies.append(
+                    BodySpec("sphere", (radius,), 1.0, (x, y, z), restitution=1.0, friction=0.0)
+                )
+    return SceneSpec(bodies)

@@ -1,0 +1,522 @@
+"""Study: the stability suite, hard cases with a metric, a pass/fail bound and pybullet beside us.
+
+Contact cases are scenes from :mod:`validation.studies.contact_scenes`, built the same way in
+thesis_rbd and in pybullet (configured per its issue #3094), stepped at 240 Hz:
+
+* ``tall_stack``: ten 1 kg unit cubes in a column (library defaults: PGS, sleeping);
+* ``mass_ratio_stack``: ten cubes, 1 kg at the bottom to 100 kg at the top (geometric),
+  shifted sideways by up to 5 mm, kept awake: ours with the exact solver and with PGS;
+* ``pyramid``: four rows of unit cubes, each resting on two below;
+* ``card_house``: two 2 cm plates leaning against each other at 20 degrees, friction 0.6;
+* ``thin_plate``: a 1 cm plate falling flat at 30 m/s (0.125 m, 12 thicknesses, per step);
+* ``elastic_pile``: thirteen frictionless balls of restitution 1 in two layers on a floor of
+  restitution 1;
+* ``far_from_origin``: the ten-cube stack standing at (1e5, 1e5) m, compared step by step
+  with the same stack at the origin;
+* ``tiny_scale``, ``huge_scale``: a 1 mm and a 1 km cube resting on a floor (metrics relative
+  to the edge).
+
+Free-flight cases use a 1 x 2 x 3 m box of 1 kg (RK4 against pybullet's default btMultiBody):
+
+* ``high_spin``: 50 rad/s about the intermediate axis, slightly off it (it flips), 10 s;
+* ``long_run``: the tumbling box of the integrators study for 10^6 steps of 1/240 s (quick
+  10^5).
+
+Metrics, all over the whole run: drift, the largest displacement of a dynamic body from where
+it started (``top_drift``: of the top body only); deviation, the largest difference of a
+body's position from the same run at the origin (offset removed); penetration, the deepest
+contact reported by the engine after any step (thesis_rbd: ``World.contacts["depths"]``;
+pybullet: the most negative contact distance of ``getContactPoints``); final speed, the
+largest body speed at the end; energy gain, the largest rise of kinetic plus potential energy
+over its value at the start (the energy above the floor); energy and |L| drift, relative
+changes of a free body's kinetic energy and angular momentum. The bounds are requirements
+stated before the runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from validation.cases import Case
+from validation.formatting import format_number
+from validation.plotting import new_axes, save_figure
+from validation.section import Figure, Section, Table
+from validation.studies import contact_scenes as scenes
+
+NAME = "stability_suite"
+TITLE = "Stability suite: hard cases, bounds, and pybullet beside us"
+
+RATE = 240
+FREE_BOX = (1.0, 2.0, 3.0)
+TUMBLE = (0.4, 2.0, -1.1)
+HIGH_SPIN = (0.05, 50.0, 0.05)  # about y, the intermediate axis of the 1 x 2 x 3 box
+CHECKPOINTS = 100
+
+ENGINES = {
+    "ours": {"label": "thesis_rbd (defaults)", "options": {}},
+    "ours_exact": {
+        "label": "thesis_rbd, exact solver, awake",
+        "options": {"contact_solver": "exact", "sleeping": False},
+    },
+    "ours_pgs": {
+        "label": "thesis_rbd, PGS, awake",
+        "options": {"contact_solver": "pgs", "sleeping": False},
+    },
+    "pybullet": {"label": "pybullet (default solver)", "options": None},
+}
+
+# name -> label, scene factory (or "free" for a free-flight case), engines, length scale (m)
+# the metrics are divided by (1 for absolute metrics), and the metrics as (key, label, bound).
+CASES = {
+    "tall_stack": {
+        "label": "tall stack, 10 cubes",
+        "scene": lambda: scenes.cube_stack(10),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("top_drift", "top cube drift (m)", 1e-3),
+            ("max_penetration", "penetration (m)", 1e-3),
+            ("final_speed", "largest speed at the end (m/s)", 1e-2),
+        ),
+    },
+    "mass_ratio_stack": {
+        "label": "mass-ratio stack, 1 to 100 kg, +-5 mm",
+        "scene": lambda: scenes.cube_stack(10, mass_ratio=100.0, offset=0.005),
+        "engines": ("ours_exact", "ours_pgs", "pybullet"),
+        "metrics": (
+            ("max_drift", "largest cube drift (m)", 1e-3),
+            ("max_penetration", "penetration (m)", 1e-3),
+        ),
+    },
+    "pyramid": {
+        "label": "pyramid, 4 rows",
+        "scene": lambda: scenes.pyramid(4),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("max_drift", "largest cube drift (m)", 1e-3),
+            ("max_penetration", "penetration (m)", 1e-3),
+        ),
+    },
+    "card_house": {
+        "label": "card house, two plates leaning at 20 deg",
+        "scene": lambda: scenes.card_house(20.0),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("max_drift", "largest plate drift (m)", 5e-3),
+            ("max_penetration", "penetration (m)", 1e-3),
+        ),
+    },
+    "thin_plate": {
+        "label": "thin plate, 1 cm, at 30 m/s",
+        "scene": lambda: scenes.thin_plate(30.0, 0.01),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("final_height", "plate centre height at the end (m)", (0.004, 0.006)),
+            ("max_penetration", "penetration (m)", 5e-3),
+        ),
+    },
+    "elastic_pile": {
+        "label": "e = 1 pile, 13 balls",
+        "scene": lambda: scenes.elastic_pile(),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("energy_gain", "energy gain, relative", 1e-3),
+            ("max_penetration", "penetration (m)", 1e-2),
+        ),
+    },
+    "far_from_origin": {
+        "label": "10-cube stack at (1e5, 1e5) m",
+        "scene": lambda: scenes.cube_stack(10, origin=(1e5, 1e5)),
+        "reference": lambda: scenes.cube_stack(10),
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("deviation", "largest deviation from the run at the origin (m)", 1e-6),
+            ("max_penetration", "penetration (m)", 1e-3),
+        ),
+    },
+    "tiny_scale": {
+        "label": "1 mm cube at rest",
+        "scene": lambda: scenes.cube_stack(1, edge=1e-3),
+        "engines": ("ours", "pybullet"),
+        "length": 1e-3,
+        "metrics": (
+            ("max_drift", "drift / edge", 1e-2),
+            ("max_penetration", "penetration / edge", 1e-2),
+        ),
+    },
+    "huge_scale": {
+        "label": "1 km cube at rest",
+        "scene": lambda: scenes.cube_stack(1, edge=1e3),
+        "engines": ("ours", "pybullet"),
+        "length": 1e3,
+        "metrics": (
+            ("max_drift", "drift / edge", 1e-2),
+            ("max_penetration", "penetration / edge", 1e-2),
+        ),
+    },
+    "high_spin": {
+        "label": "high spin, 50 rad/s near the intermediate axis",
+        "scene": "free",
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("energy_drift", "kinetic energy drift, relative", 1e-3),
+            ("momentum_drift", "|L| drift, relative", 1e-6),
+        ),
+    },
+    "long_run": {
+        "label": "long run, tumbling box",
+        "scene": "free",
+        "engines": ("ours", "pybullet"),
+        "metrics": (
+            ("energy_drift", "kinetic energy drift, relative", 1e-6),
+            ("momentum_drift", "|L| drift, relative", 1e-9),
+        ),
+    },
+}
+
+SECONDS = {"full": 4.0, "quick": 2.0, "tiny": 0.25}
+FREE_SECONDS = {"full": 10.0, "quick": 10.0, "tiny": 1.0}
+LONG_STEPS = {"full": 1_000_000, "quick": 100_000, "tiny": 2_000}
+
+
+def cases(scale: str) -> list[Case]:
+    """One accuracy case per hard case and engine."""
+    out = []
+    for name, spec in CASES.items():
+        for engine in spec["engines"]:
+            params = {"case": name, "engine": engine, "rate": RATE}
+            if name == "long_run":
+                params["steps"] = LONG_STEPS[scale]
+            elif spec["scene"] == "free":
+                params["seconds"] = FREE_SECONDS[scale]
+            else:
+                params["seconds"] = SECONDS[scale]
+            out.append(Case(NAME, params))
+    return out
+
+
+# ----------------------------------------------------------------------------- contact cases
+def _box_inertia(mass, extents):
+    a, b, c = extents
+    return mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
+def _pybullet_energy(spec, scene, dynamic):
+    """Kinetic plus potential energy of pybullet's dynamic bodies."""
+    total = 0.0
+    for i in dynamic:
+        body = spec.bodies[i]
+        v, w = scene.velocity(i), scene.angular_velocity(i)
+        R = Rotation.from_quat(scene.orientation(i)).as_matrix()
+        if body.shape == "box":
+            inertia = _box_inertia(body.mass, body.size)
+        else:
+            inertia = np.full(3, 0.4 * body.mass * body.size[0] ** 2)
+        w_body = R.T @ w
+        total += 0.5 * body.mass * v @ v + 0.5 * w_body @ (inertia * w_body)
+        total += body.mass * spec.gravity * scene.position(i)[2]
+    return total
+
+
+def _trace(spec, engine: str, steps: int, dt: float) -> dict:
+    """Step ``spec`` in ``engine``: dynamic bodies' positions (steps + 1, n, 3), the deepest
+    contact after each step (steps,), the energy (steps + 1,), final speeds (n,)."""
+    dynamic = spec.dynamic()
+    if engine == "pybullet":
+        scene = scenes.build_pybullet(spec, dt)
+
+        def positions():
+            return np.array([scene.position(i) for i in dynamic])
+
+        def speeds():
+            return np.array([np.linalg.norm(scene.velocity(i)) for i in dynamic])
+
+        def energy():
+            return _pybullet_energy(spec, scene, dynamic)
+
+        def penetration():
+            return scene.max_penetration()
+
+        step, close = scene.step, scene.close
+    else:
+        world = scenes.build_world(spec, dt, **ENGINES[engine]["options"])
+
+        def positions():
+            return world.positions[dynamic].copy()
+
+        def speeds():
+            return np.array([np.linalg.norm(world.linear_velocity(i)) for i in dynamic])
+
+        def energy():
+            return world.kinetic_energy() + world.potential_energy()
+
+        def penetration():
+            return float(world.contacts["depths"].max(initial=0.0))
+
+        step, close = world.step, lambda: None
+
+    trace = {
+        "positions": np.empty((steps + 1, len(dynamic), 3)),
+        "penetration": np.empty(steps),
+        "energy": np.empty(steps + 1),
+    }
+    trace["positions"][0], trace["energy"][0] = positions(), energy()
+    for k in range(steps):
+        step()
+        trace["positions"][k + 1] = positions()
+        trace["penetration"][k] = penetration()
+        trace["energy"][k + 1] = energy()
+    trace["speeds"] = speeds()
+    close()
+    return trace
+
+
+def _run_contact(name: str, engine: str, seconds: float, rate: int) -> dict:
+    case = CASES[name]
+    spec = case["scene"]()
+    dynamic = spec.dynamic()
+    top = int(np.argmax([spec.bodies[i].position[2] for i in dynamic]))
+    steps = round(seconds * rate)
+    trace = _trace(spec, engine, steps, 1.0 / rate)
+    x = trace["positions"]
+    moved = np.linalg.norm(x - x[0], axis=2)
+    # the floor's top is at z = 0, so the energy is what the bodies could release: > 0
+    energy0 = trace["energy"][0]
+    result = {
+        "steps": steps,
+        "max_drift": float(moved.max()),
+        "top_drift": float(moved[:, top].max()),
+        "max_penetration": float(trace["penetration"].max(initial=0.0)),
+        "final_speed": float(trace["speeds"].max()),
+        "energy_gain": float((trace["energy"] - energy0).max() / energy0),
+        "final_height": float(x[-1, top, 2]),
+    }
+    if "reference" in case:
+        # the same scene at the origin: what the offset alone changes
+        near = _trace(case["reference"](), engine, steps, 1.0 / rate)["positions"]
+        offset = x[0] - near[0]
+        result["deviation"] = float(np.abs(x - offset - near).max())
+    return result
+
+
+# ----------------------------------------------------------------------------- free cases
+def _free_box():
+    import thesis_rbd as rbd
+
+    mesh = rbd.shapes.box(FREE_BOX)
+    return mesh, rbd.mass_properties(mesh, mass=1.0).inertia
+
+
+def _run_free(engine: str, omega0, steps: int, rate: int) -> dict:
+    """Kinetic energy and |L| relative drift at checkpoints along a torque-free run."""
+    import thesis_rbd as rbd
+
+    mesh, inertia = _free_box()
+    chunk = max(steps // CHECKPOINTS, 1)
+    if engine == "pybullet":
+        from validation.pybullet_free_body import PybulletBox
+
+        box = PybulletBox(FREE_BOX, 1.0, np.diag(inertia), 1.0 / rate, angular_velocity=omega0)
+
+        def advance(n):
+            box.time_steps(n)
+
+        def energy_and_momentum():
+            _, q, w = box.state()
+            R = Rotation.from_quat(q).as_matrix()
+            L = R @ inertia @ R.T @ w
+            return 0.5 * w @ L, np.linalg.norm(L)
+
+        close = box.close
+    else:
+        world = rbd.World(dt=1.0 / rate)
+        body = world.add_body(mesh, mass=1.0, angular_velocity=omega0)
+
+        def advance(n):
+            world.step(n)
+
+        def energy_and_momentum():
+            return world.kinetic_energy(), np.linalg.norm(world.angular_momentum(body))
+
+        def close():
+            return None
+
+    E0, L0 = energy_and_momentum()
+    done, at, energy_drift, momentum_drift = 0, [], [], []
+    while done < steps:
+        n = min(chunk, steps - done)
+        advance(n)
+        done += n
+        E, L = energy_and_momentum()
+        at.append(done)
+        energy_drift.append(abs(E / E0 - 1.0))
+        momentum_drift.append(abs(L / L0 - 1.0))
+    close()
+    return {
+        "steps": steps,
+        "step": at,
+        "energy_drift_curve": energy_drift,
+        "momentum_drift_curve": momentum_drift,
+        "energy_drift": max(energy_drift),
+        "momentum_drift": max(momentum_drift),
+    }
+
+
+def run(params: dict) -> dict:
+    """One hard case in one engine (see the module docstring)."""
+    name, engine, rate = params["case"], params["engine"], params["rate"]
+    if name == "long_run":
+        return _run_free(engine, TUMBLE, params["steps"], rate)
+    if name == "high_spin":
+        return _run_free(engine, HIGH_SPIN, round(params["seconds"] * rate), rate)
+    return _run_contact(name, engine, params["seconds"], rate)
+
+
+# ----------------------------------------------------------------------------- summary
+def _passes(value, bound) -> bool:
+    if isinstance(bound, tuple):
+        return bound[0] <= value <= bound[1]
+    return value <= bound
+
+
+def _bound_text(bound) -> str:
+    if isinstance(bound, tuple):
+        return f"in [{format_number(bound[0])}, {format_number(bound[1])}]"
+    return f"<= {format_number(bound)}"
+
+
+def summarise(records: list[dict], figures_dir) -> Section:
+    """The pass/fail table (ours and pybullet side by side) and the drift figures."""
+    results = {(r["params"]["case"], r["params"]["engine"]): r for r in records}
+    rows = []
+    for name, spec in CASES.items():
+        length = spec.get("length", 1.0)
+        relative = {"max_drift", "top_drift", "max_penetration"} if length != 1.0 else set()
+        ours = [e for e in spec["engines"] if e != "pybullet"]
+        for key, label, bound in spec["metrics"]:
+            divisor = length if key in relative else 1.0
+
+            def value(engine, key=key, divisor=divisor, name=name):
+                record = results.get((name, engine))
+                return None if record is None else record["result"][key] / divisor
+
+            peer = value("pybullet") if "pybullet" in spec["engines"] else None
+            for engine in ours:
+                v = value(engine)
+                rows.append(
+                    {
+                        "case": name,
+                        "case_label": spec["label"],
+                        "engine": engine,
+                        "engine_label": ENGINES[engine]["label"],
+                        "metric": key,
+                        "metric_label": label,
+                        "bound": list(bound) if isinstance(bound, tuple) else bound,
+                        "bound_text": _bound_text(bound),
+                        "ours": v,
+                        "pybullet": peer,
+                        "pass": _passes(v, bound),
+                        "pybullet_pass": None if peer is None else _passes(peer, bound),
+                    }
+                )
+    failing = [r for r in rows if not r["pass"]]
+    # one pybullet figure per case and metric, however many of our settings sit beside it
+    peer_rows = list(
+        {(r["case"], r["metric"]): r for r in rows if r["pybullet"] is not None}.values()
+    )
+    summary = {
+        "rate": RATE,
+        "rows": rows,
+        "row_count": len(rows),
+        "passing_count": len(rows) - len(failing),
+        "failing": failing,
+        "peer_count": len(peer_rows),
+        "peer_passing_count": sum(bool(r["pybullet_pass"]) for r in peer_rows),
+        "seconds": next(
+            r["params"]["seconds"]
+            for r in records
+            if "seconds" in r["params"] and r["params"]["case"] != "high_spin"
+        ),
+        "free_seconds": results[("high_spin", "ours")]["params"]["seconds"],
+        "long_steps": results[("long_run", "ours")]["params"]["steps"],
+        "mass_ratio": {
+            engine: results[("mass_ratio_stack", engine)]["result"]["max_drift"]
+            for engine in CASES["mass_ratio_stack"]["engines"]
+        },
+    }
+    table = Table(
+        caption="Hard cases: each metric over the whole run, its bound, ours and pybullet's",
+        columns=["case", "engine", "metric", "bound", "ours", "pass", "pybullet", "pybullet pass"],
+        rows=[
+            [
+                r["case_label"],
+                r["engine_label"],
+                r["metric_label"],
+                r["bound_text"],
+                format_number(r["ours"]),
+                "pass" if r["pass"] else "FAIL",
+                format_number(r["pybullet"]),
+                "n/a" if r["pybullet_pass"] is None else "pass" if r["pybullet_pass"] else "FAIL",
+            ]
+            for r in rows
+        ],
+    )
+    figures = [_drift_figure(results, figures_dir), _free_figure(results, figures_dir)]
+    return Section(NAME, TITLE, summary, tables=[table], figures=figures)
+
+
+def _drift_figure(results, figures_dir):
+    fig, ax = new_axes(
+        "Contact cases: largest drift, ours and pybullet",
+        "case",
+        "largest body drift over the run (m)",
+        xlog=False,
+    )
+    names = [n for n, spec in CASES.items() if spec["scene"] != "free"]
+    x = np.arange(len(names))
+    engines = [e for e in ENGINES if any((n, e) in results for n in names)]
+    width = 0.8 / len(engines)
+    for k, engine in enumerate(engines):
+        heights = [
+            max(results[(n, engine)]["result"]["max_drift"], 1e-12)
+            if (n, engine) in results
+            # a missing bar: the engine does not run this case
+            else np.nan
+            for n in names
+        ]
+        shift = (k - (len(engines) - 1) / 2) * width
+        ax.bar(x + shift, heights, width, label=ENGINES[engine]["label"])
+    ax.set_xticks(x, names, rotation=35, ha="right", fontsize=8)
+    ax.axhline(1e-3, color="0.4", linewidth=0.8, linestyle=":")
+    ax.legend(fontsize=7)
+    file = f"{NAME}_drift.png"
+    save_figure(fig, figures_dir / file)
+    return Figure(
+        file,
+        "Largest displacement of any dynamic body over the run, per contact case and engine "
+        "(log scale, floored at 1e-12; dotted: 1 mm).",
+    )
+
+
+def _free_figure(results, figures_dir):
+    fig, ax = new_axes(
+        "Free cases: kinetic energy drift", "step", "|E/E0 - 1| (floored at 1e-17)", True, True
+    )
+    for name, style in (("high_spin", "-"), ("long_run", "--")):
+        for engine, color in (("ours", "tab:blue"), ("pybullet", "black")):
+            result = results[(name, engine)]["result"]
+            ax.plot(
+                result["step"],
+                np.maximum(result["energy_drift_curve"], 1e-17),
+                linestyle=style,
+                color=color,
+                label=f"{CASES[name]['label']}, {ENGINES[engine]['label']}",
+            )
+    ax.legend(fontsize=7)
+    file = f"{NAME}_free.png"
+    save_figure(fig, figures_dir / file)
+    return Figure(
+        file,
+        "Relative kinetic-energy drift along the high-spin and the long run, RK4 against "
+        "pybullet's btMultiBody.",
+    )
