@@ -92,6 +92,62 @@ def test_headline_numbers_are_the_records_numbers(tiny_report):
     assert rk4["max_angle_error"] < 1e-6  # RK4 at dt = 1/240 s over 2 s
 
 
+def test_impact_handling_keeps_the_ball_out_of_the_floor_with_the_time_of_impact(tiny_report):
+    out, _ = tiny_report
+    data = study_data(out, "impact_handling")
+    rows = {(r["scene"], r["mode"], r["rate"]): r for r in data["summary"]["rows"]}
+    toi, projection = rows[("ball_e1", "toi", 60)], rows[("ball_e1", "projection", 60)]
+    assert toi["max_penetration"] < projection["max_penetration"]
+    assert toi["max_energy_error"] < 1e-6 < projection["max_energy_error"]
+    assert all(r["ms_per_step"] > 0 for r in rows.values())
+
+
+def test_lcp_study_measures_pgs_against_an_exact_reference(tiny_report):
+    out, _ = tiny_report
+    data = study_data(out, "lcp_vs_pgs")
+    for record in data["records"]:
+        result = record["result"]
+        assert result["exact_fallbacks"] == 0 and result["exact_seconds"] > 0
+        assert len(result["pgs"]) == 2 * len(record["params"]["iterations"])
+        assert all(p["error"] >= 0 and p["seconds"] > 0 for p in result["pgs"])
+    text = " ".join(data["paragraphs"])
+    stack = data["summary"]["scenes"]["stack"]
+    assert f"the exact solve takes {format_number(stack['exact_ms'])} ms" in text
+
+
+def test_stability_suite_rows_hold_ours_pybullet_and_the_verdict(tiny_report):
+    out, _ = tiny_report
+    data = study_data(out, "stability_suite")
+    summary = data["summary"]
+    cases = {row["case"] for row in summary["rows"]}
+    assert {"tall_stack", "mass_ratio_stack", "long_run", "tiny_scale", "huge_scale"} <= cases
+    for row in summary["rows"]:
+        assert row["ours"] is not None and row["pybullet"] is not None
+        bound = row["bound"]
+        inside = (
+            bound[0] <= row["ours"] <= bound[1]
+            if isinstance(bound, list)
+            else (row["ours"] <= bound)
+        )
+        assert row["pass"] == inside
+    assert summary["passing_count"] + len(summary["failing"]) == summary["row_count"]
+    (exact,) = [
+        r["result"]["max_drift"]
+        for r in data["records"]
+        if r["params"]["case"] == "mass_ratio_stack" and r["params"]["engine"] == "ours_exact"
+    ]
+    assert summary["mass_ratio"]["ours_exact"] == exact
+
+
+@pytest.mark.parametrize("name", ["sap_benchmarks", "obbtree_benchmarks", "contact_benchmarks"])
+def test_benchmark_suites_compare_with_their_peers(tiny_report, name):
+    out, _ = tiny_report
+    summary = study_data(out, name)["summary"]
+    assert summary["comparison_count"] > 0
+    for c in summary["comparisons"]:
+        assert c["ratio"] == pytest.approx(c["peer_median"] / c["ours_median"])
+
+
 def test_a_finished_campaign_runs_nothing_again(tiny_report, monkeypatch):
     out, first = tiny_report
 

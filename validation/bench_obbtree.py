@@ -4,12 +4,15 @@ Scene (``/work/shared/data/tori_wobble.npz``): two tori of 5000 triangles (R = 1
 50 x 50 sections); A fixed at the identity, B standing in the xz-plane, wobbling while it
 slides along x from -3 to +3 through A in 200 poses. One *sweep* is one query per pose.
 
-Run with ``pytest validation/bench_obbtree.py --benchmark-enable``: each benchmark times our
-sweep, and in the (untimed) setup before every round runs python-fcl's sweep for the same mode
-(``BVHModel`` of OBBRSS boxes, ``CollisionRequest`` with ``num_max_contacts`` 1 for "first" and
-100000 for "all"), so the two alternate and share the machine's state; fcl's per-round sweep
-times are stored in ``extra_info``. Both sides include their Python wrapper (ours: ``collide``
-with input checks; fcl: ``setTransform``, request and result objects, ``fcl.collide``).
+Run with ``pytest validation/bench_obbtree.py --benchmark-enable``: each benchmark times one
+sweep, ours per variant and python-fcl's for the same mode (``BVHModel`` of OBBRSS boxes,
+``CollisionRequest`` with ``num_max_contacts`` 1 for "first" and 100000 for "all") as a peer
+benchmark of the same group (``extra_info["peer"]``), in the same run, so the validation
+campaign reads the ratios from the JSON (``validation/benchjson.py``). Both sides include their
+Python wrapper (ours: ``collide`` with input checks; fcl: ``setTransform``, request and result
+objects, ``fcl.collide``). The scaling benchmarks sweep every fourth pose with tori of 512 to
+about 10k triangles (same radii, so the same poses interlock them), ours (default tree) and
+fcl's, in "all" mode.
 
 ``python -m validation.bench_obbtree`` prints the summary table (medians over repeated,
 interleaved sweeps): build time, bytes per triangle, all-pairs rate, first-contact time and
@@ -116,47 +119,87 @@ def demo():
     return d
 
 
-def _interleaved(benchmark, demo, variant, mode, fcl_mode, rounds=5):
-    fcl_times: list[float] = []
-
-    def setup():
-        if fcl_mode is not None:
-            fcl_times.append(demo.fcl_sweep(fcl_mode)[0])
-
-    result = benchmark.pedantic(
-        lambda: demo.sweep(variant, mode), setup=setup, rounds=rounds, iterations=1
-    )
+def _sweep(benchmark, demo, variant, mode, rounds=5):
+    benchmark.group = f"tori demo, {mode}"
+    result = benchmark.pedantic(lambda: demo.sweep(variant, mode), rounds=rounds, iterations=1)
     _, pairs, _ = result
-    benchmark.extra_info.update(variant=variant, mode=mode, pairs=pairs)
-    if fcl_times:
-        benchmark.extra_info["fcl_sweep_median_s"] = float(np.median(fcl_times))
+    benchmark.extra_info.update(variant=variant, mode=mode, pairs=pairs, triangles=len(demo.mesh))
     return pairs
 
 
 @pytest.mark.parametrize("variant", list(VARIANTS))
 def test_all_pairs(benchmark, demo, variant):
-    pairs = _interleaved(benchmark, demo, variant, "all", "all")
+    pairs = _sweep(benchmark, demo, variant, "all")
     assert pairs > 30000
 
 
 @pytest.mark.parametrize("variant", list(VARIANTS))
 def test_first_contact(benchmark, demo, variant):
-    pairs = _interleaved(benchmark, demo, variant, "first", "first", rounds=10)
+    pairs = _sweep(benchmark, demo, variant, "first", rounds=10)
     assert 100 < pairs < 200
 
 
 @pytest.mark.parametrize("variant", ["leafless/triangles/f64", "leaf/triangles/f64"])
 def test_contacts(benchmark, demo, variant):
-    _interleaved(benchmark, demo, variant, "contacts", "contacts")
+    _sweep(benchmark, demo, variant, "contacts")
+
+
+@pytest.mark.parametrize("mode", ["all", "first", "contacts"])
+def test_fcl_sweep(benchmark, demo, mode):
+    benchmark.group = f"tori demo, {mode}"
+    benchmark.extra_info.update(peer="python-fcl", mode=mode, triangles=len(demo.mesh))
+    result = benchmark.pedantic(
+        lambda: demo.fcl_sweep(mode), rounds=10 if mode == "first" else 5, iterations=1
+    )
+    benchmark.extra_info["pairs"] = result[1]
 
 
 @pytest.mark.parametrize("variant", list(VARIANTS))
 def test_build(benchmark, demo, variant):
+    benchmark.group = "tori demo, build"
+    benchmark.extra_info.update(variant=variant, triangles=len(demo.mesh))
     benchmark.pedantic(lambda: rbd.OBBTree(demo.mesh, **VARIANTS[variant]), rounds=5, iterations=1)
 
 
 def test_fcl_build(benchmark, demo):
+    benchmark.group = "tori demo, build"
+    benchmark.extra_info.update(peer="python-fcl", triangles=len(demo.mesh))
     benchmark.pedantic(lambda: fcl_model(demo.mesh), rounds=5, iterations=1)
+
+
+SCALING_SECTIONS = (16, 32, 50, 72)  # 512, 2048, 5000, 10368 triangles
+
+
+@pytest.mark.parametrize("sections", SCALING_SECTIONS)
+@pytest.mark.parametrize("engine", ["ours", "fcl"])
+def test_scaling_all_pairs(benchmark, demo, engine, sections):
+    """Every fourth pose of the demo in "all" mode with tori of 2 sections^2 triangles."""
+    mesh = rbd.shapes.torus(1.0, 0.3, sections, sections)
+    poses = demo.poses[::4]
+    benchmark.group = f"scaling, {len(mesh)} triangles"
+    benchmark.extra_info.update(triangles=len(mesh), mode="all")
+    if engine == "fcl":
+        benchmark.extra_info["peer"] = "python-fcl"
+        fcl = demo.fcl
+        a, b = fcl_object(fcl_model(mesh)), fcl_object(fcl_model(mesh))
+        transforms = [fcl_transform(P) for P in poses]
+
+        def sweep():
+            for tf in transforms:
+                b.setTransform(tf)
+                result = fcl.CollisionResult()
+                fcl.collide(a, b, fcl.CollisionRequest(num_max_contacts=100000), result)
+
+    else:
+        tree = rbd.OBBTree(mesh)
+        benchmark.extra_info["variant"] = "leafless/triangles/f64"
+
+        def sweep():
+            for P in poses:
+                rbd.collide(tree, demo.identity, tree, P, mode="all")
+
+        sweep()  # compile outside the timing
+    benchmark.pedantic(sweep, rounds=5, iterations=1)
 
 
 def test_pairs_agree_with_fcl(demo):

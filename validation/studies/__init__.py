@@ -28,6 +28,7 @@ from types import ModuleType
 
 from validation.studies import (
     collision_modes,
+    contact_benchmarks,
     dzhanibekov,
     fcl_crosscheck,
     free_flight_benchmarks,
@@ -36,7 +37,9 @@ from validation.studies import (
     lcp_vs_pgs,
     long_runs,
     obb_vs_aabb,
+    obbtree_benchmarks,
     obbtree_variants,
+    sap_benchmarks,
     stability_suite,
 )
 
@@ -56,6 +59,9 @@ STUDIES: dict[str, ModuleType] = {
         impact_handling,
         lcp_vs_pgs,
         stability_suite,
+        obbtree_benchmarks,
+        sap_benchmarks,
+        contact_benchmarks,
     )
 }
 

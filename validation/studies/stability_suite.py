@@ -174,7 +174,7 @@ CASES = {
     },
 }
 
-SECONDS = {"full": 4.0, "quick": 2.0, "tiny": 0.25}
+SECONDS = {"full": 4.0, "quick": 2.0, "tiny": 0.1}
 FREE_SECONDS = {"full": 10.0, "quick": 10.0, "tiny": 1.0}
 LONG_STEPS = {"full": 1_000_000, "quick": 100_000, "tiny": 2_000}
 
