@@ -10,6 +10,7 @@ from reference_broad_phase import BroadPhaseOracle, brute_force_pairs
 
 import thesis_rbd as rbd
 from thesis_rbd.collision import pair_table
+from thesis_rbd.collision._sap_grid import choose_grid, compute_cells
 from thesis_rbd.collision.sap import SweepAndPrune
 
 # ---------------------------------------------------------------- helpers
@@ -23,6 +24,12 @@ def _configured(variant: str) -> SweepAndPrune:
         sap._swap_budget = lambda: 3
         sap._prediction_margin = np.inf  # never skip the insertion sort up front
         return sap
+    if variant == "fine_grid":
+        # Cells as small as a box edge and one box per column: boxes span several columns,
+        # share several with their partners and move between them every frame.
+        sap = SweepAndPrune()
+        sap._grid_options = {"cell_edges": 0.5, "boxes_per_column": 0.01}
+        return sap
     if variant == "tiny_log":
         # Parks and resumes the insertion sort after every logged transition.
         sap = SweepAndPrune("incremental")
@@ -31,7 +38,7 @@ def _configured(variant: str) -> SweepAndPrune:
     return SweepAndPrune(variant)
 
 
-VARIANTS = ["auto", "incremental", "full", "tiny_budget", "tiny_log"]
+VARIANTS = ["auto", "incremental", "full", "tiny_budget", "tiny_log", "fine_grid"]
 
 
 def _assert_same(got, want, what):
@@ -177,6 +184,68 @@ def test_thousands_of_boxes_with_teleports(offset):
         if frame in (4, 9):
             assert sap.stats["full_resort"], sap.stats
     assert used_full and used_incremental
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_grid_columns_match_brute_force(seed):
+    """Many columns: boxes spanning several, pairs sharing several, boxes crossing cells."""
+    rng = np.random.default_rng(seed)
+    n = 300
+    centre = rng.uniform(0, 12, (n, 3))
+    half = rng.uniform(0.05, 0.6, (n, 3))
+    half[:3] = 3.0  # a few boxes across many columns
+    centre[3:9] = np.round(centre[3:9])  # bounds on cell boundaries (cells of 0.5 here)
+    sap = SweepAndPrune()
+    sap._grid_options = {"cell_edges": 0.5, "boxes_per_column": 0.5}
+    oracle = BroadPhaseOracle()
+    incremental = 0
+    for frame in range(16):
+        centre += rng.normal(0, 0.15, centre.shape)  # crosses a cell boundary every few frames
+        lower, upper = centre - half, centre + half
+        before = sap.pairs.copy()
+        added, removed = sap.update(lower, upper)
+        _check_frame(sap, oracle, before, added, removed, *oracle.update(lower, upper))
+        incremental += not sap.stats["full_resort"]
+        if frame == 0:
+            assert (sap._grid[:, 2] > 4).all()
+            spans = sap._rng[:, :, [1, 3]] - sap._rng[:, :, [0, 2]]
+            assert (spans.max(axis=2) > 0).mean() > 0.3  # many boxes in several columns
+        if frame % 5 == 4:
+            before = sap.pairs.copy()
+            new_c = rng.uniform(0, 12, (5, 3))
+            new_h = rng.uniform(0.05, 0.6, (5, 3))
+            ids, got = sap.add(new_c - new_h, new_c + new_h)
+            want_ids, want = oracle.add(new_c - new_h, new_c + new_h)
+            np.testing.assert_array_equal(ids, want_ids)
+            _assert_same(got, want, "added by add()")
+            sap._check_invariants()
+            centre = np.concatenate([centre, new_c])
+            half = np.concatenate([half, new_h])
+            gone = rng.choice(len(sap), size=4, replace=False)
+            _assert_same(sap.remove(gone), oracle.remove(gone), "removed by remove()")
+            sap._check_invariants()
+            keep = np.setdiff1d(np.arange(centre.shape[0]), gone)
+            centre, half = centre[keep], half[keep]
+    assert incremental >= 12
+
+
+def test_grid_coarsens_when_boxes_span_too_many_columns():
+    rng = np.random.default_rng(2)
+    n = 4000
+    centre = rng.uniform(0, 60, (n, 3))
+    half = rng.uniform(0.25, 0.75, (n, 3))
+    box = np.empty((n, 6))
+    box[:, 0::2], box[:, 1::2] = centre - half, centre + half
+    grid, cells = choose_grid(box)
+    assert (grid[:, 2] > 1).all()
+    np.testing.assert_array_equal(cells, compute_cells(box, grid))
+    # Half the boxes as large as the scene: listed in every column unless the grid coarsens.
+    box[: n // 2, 0::2] = 0.0
+    box[: n // 2, 1::2] = 60.0
+    grid, cells = choose_grid(box)
+    spans = (cells[:, 1::2] - cells[:, 0::2] + 1).astype(float)
+    per_axis = (spans[:, [1, 2, 0]] * spans[:, [2, 0, 1]]).sum(axis=0)
+    assert per_axis.max() <= 2.0 * n
 
 
 def test_identical_and_degenerate_boxes():

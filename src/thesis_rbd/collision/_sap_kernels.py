@@ -1,32 +1,32 @@
 """numba kernels of the sweep-and-prune broad phase (thesis 4.7, 5.3); ``sap.py`` wraps them.
 
-Flat state shared by the kernels, with ``n`` objects and ``m = 2 n`` endpoints per axis:
+Flat state shared by the kernels, with ``n`` objects:
 
 ``box : (n, 6) float64``
-    Bounds of each object, row ``[lo_x, hi_x, lo_y, hi_y, lo_z, hi_z]``: the gather of an
-    endpoint's coordinates touches one row (48 bytes) instead of one row of each of a lower
-    and an upper array. The wrapper keeps two and swaps them each frame (new and previous).
-``val : (3, m) float64``
-    Endpoint coordinates of each axis in sorted order.
-``ep : (3, m) int64``
-    Endpoint codes in the same order: ``2 * id`` for a begin (lower bound), ``2 * id + 1`` for
-    an end (upper bound).
+    Bounds of each object, row ``[lo_x, hi_x, lo_y, hi_y, lo_z, hi_z]``. The wrapper keeps two
+    and swaps them each frame (new and previous), and likewise two ``cells``.
+``cells : (n, 6) int32``
+    The grid cells of those bounds (``_sap_grid``).
+``val, ep, col, count, rng``
+    The endpoint records of each axis, one sorted run per grid column (``_sap_columns``).
 
-Sort key of an endpoint is ``(value, is_end)``: on equal coordinates a begin sorts before an
-end, so intervals that only touch are seen as overlapping (closed intervals). With that key,
-"the intervals of i and j overlap on axis a" is exactly "begin_i precedes end_j and begin_j
-precedes end_i in the array of axis a", and the number of axes on which that holds is the
-thesis's overlap counter of the pair. Only a swap of a begin with an end changes a term of a
-counter, and the pair enters (or leaves) the overlap set exactly when its counter reaches (or
-leaves) 3.
+Sort key of an endpoint is ``(column, value, is_end)``: on equal coordinates a begin sorts
+before an end, so intervals that only touch are seen as overlapping (closed intervals). With
+that key, inside a column that lists both boxes, "the intervals of i and j overlap on axis a"
+is exactly "begin_i precedes end_j and begin_j precedes end_i". A frame moves the axes one
+after the other, x then y then z; while axis ``a`` moves, the other two hold their new bounds
+if sorted already this frame, else their previous ones, and the columns of ``a`` are those of
+exactly these bounds (``rebin_axis``). A pair's overlap changes while axis ``a`` moves only
+when a begin of one passes an end of the other while the other two axes overlap, and that
+swap happens in every column that lists both boxes; it is counted in one of them only, the
+column of the pair's canonical point ``(max lo_b, max lo_c)``, which lies in both boxes (they
+overlap on b and c) and whose cells are ``max`` of the two boxes' cells (the cell map is
+monotone). So each overlap transition is logged exactly once, as with a single list.
 
-The counters are not stored for all pairs: pairs that overlap on one axis alone number
-O(n^(5/3)) in a uniform 3-D scene, about 10^8 at n = 10^5. Nor are they read from rank arrays,
-which costs a cache miss per swap (measured: 170 ms instead of 12 ms per frame at n = 10^5).
-Instead each endpoint record carries a copy of its box's bounds on the two other axes, so the
-other two counter terms of a pair are read from the two records being swapped: an axis already
-sorted this frame is in the order of the new bounds, an axis not yet sorted still in the order
-of the previous frame's bounds, and the copies are taken accordingly (``_refresh_axis``).
+The other two axes' bounds are read from the bounds tables by id at a begin/end swap only:
+with columns, swaps are few (a few per box per frame), and the per-record copies that a
+single list needed to avoid a cache miss per swap (1.8M swaps per frame at n = 10^5) would
+cost a gather of four values for every record of every frame.
 
 Why three sorted axes and not one: a single sorted axis finds the pairs whose intervals
 start or stop overlapping on that axis, but a pair that already overlaps on it and starts
@@ -41,6 +41,8 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision._sap_columns import rebin_axis
+from thesis_rbd.collision._sap_grid import cell_of
 from thesis_rbd.collision.pair_table import (
     IN_SET,
     TOUCHED,
@@ -145,37 +147,57 @@ def _touch(keys, flags, slot, touched, ntouched):
 
 
 @njit
-def _refresh_axis(box, old_box, val, ep, other, a):
-    """Write the new coordinates of axis ``a`` and the other axes' bounds into its records.
+def _refresh_values(box, val, ep, col, count, a):
+    """Give every record of axis ``a`` its new coordinate: one gather per record.
 
-    ``other[p] = (lo_b, hi_b, lo_c, hi_c)`` of the box of endpoint ``p`` with ``b = a + 1``,
-    ``c = a + 2`` (mod 3): new bounds (``box``) for axes sorted before ``a`` in this frame,
-    the previous frame's (``old_box``) for axes sorted after it, so that each matches its
-    axis's current order. A pass of its own: its gathers are independent of each other, so
-    the processor overlaps their cache misses; gathered inside the sort, each insertion
-    waited for its own (measured at n = 10^5: 137 ms per frame instead of 22 ms).
+    Returns the first record whose key is below its predecessor's (``count[a]`` when none):
+    the insertion sort starts there, so a frame without swaps reads each axis once.
     """
-    b = (a + 1) % 3
-    c3 = (a + 2) % 3
-    src_b = box if b < a else old_box
-    src_c = box if c3 < a else old_box
-    for p in range(ep.shape[1]):
-        code = ep[a, p]
-        i = code >> 1
-        val[a, p] = box[i, 2 * a + (code & 1)]
-        other[p, 0] = src_b[i, 2 * b]
-        other[p, 1] = src_b[i, 2 * b + 1]
-        other[p, 2] = src_c[i, 2 * c3]
-        other[p, 3] = src_c[i, 2 * c3 + 1]
+    va = val[a]
+    ea = ep[a]
+    ca = col[a]
+    m = count[a]
+    previous = -np.inf
+    previous_end = 0
+    previous_col = -1
+    for p in range(m):
+        code = ea[p]
+        v = box[code >> 1, 2 * a + (code & 1)]
+        va[p] = v
+        k = ca[p]
+        if k == previous_col and (v < previous or (v == previous and previous_end > (code & 1))):
+            # Out of order: refresh the rest without looking any more.
+            for r in range(p + 1, m):
+                code = ea[r]
+                va[r] = box[code >> 1, 2 * a + (code & 1)]
+            return p
+        previous = v
+        previous_end = code & 1
+        previous_col = k
+    return m
 
 
 @njit
-def _sort_axis(val, ep, other, a, p, log_keys, log_start, swaps, budget):
-    """Insertion-sort axis ``a`` from element ``p`` on, logging counter transitions.
+def _sort_axis(val, ep, col, box_b, box_c, cells_b, cells_c, gc, a, p, m, log_keys, log_start,
+               swaps, budget):  # fmt: skip
+    """Insertion-sort the records of axis ``a`` from element ``p`` on, logging transitions.
 
     The hot loop of the broad phase. It calls nothing and never reallocates, so numba keeps
     it tight (a hash-table call inside it measured 4x slower); transitions go to a fixed-size
-    log that the caller applies to the pair table.
+    log that the caller applies to the pair table. A record never leaves its column: the
+    column is the first part of the key, so the column array is not touched.
+
+    Parameters
+    ----------
+    box_b, box_c : (n, 6) float64
+        The bounds tables that hold axis ``b``'s and axis ``c``'s bounds as this axis sees
+        them (``b = a + 1``, ``c = a + 2`` mod 3); ``cells_b``, ``cells_c`` their cells.
+    gc : int
+        Cells of the grid along ``c`` (``column = cell_b * gc + cell_c``).
+    p : int
+        First record to insert, at least 1.
+    m : int
+        Records of the axis.
 
     Returns
     -------
@@ -184,66 +206,66 @@ def _sort_axis(val, ep, other, a, p, log_keys, log_start, swaps, budget):
         element being moved is parked at the hole, which keeps the prefix before it sorted,
         so resuming there is exact) or when ``swaps`` passed ``budget``.
     nlog : int
-        Log entries written: ``log_keys[t]`` a pair key, ``log_start[t]`` 1 when the pair's
-        counter went 2 -> 3, 0 when 3 -> 2.
+        Log entries written: ``log_keys[t]`` a pair key, ``log_start[t]`` 1 when the pair
+        began to overlap, 0 when it stopped.
     swaps : int
         Running swap count.
     """
-    m = ep.shape[1]
+    b = (a + 1) % 3
+    c = (a + 2) % 3
+    # Rows as 1-D views: the inner loop indexes one array per quantity.
+    va = val[a]
+    ea = ep[a]
+    ca = col[a]
     capacity = log_keys.shape[0]
     nlog = 0
     while p < m:
-        v = val[a, p]
-        code = ep[a, p]
+        v = va[p]
+        code = ea[p]
         is_end = code & 1
-        lo_b = other[p, 0]
-        hi_b = other[p, 1]
-        lo_c = other[p, 2]
-        hi_c = other[p, 3]
+        k = ca[p]
+        vq = va[p - 1]
+        if vq < v or (vq == v and (ea[p - 1] & 1) <= is_end) or ca[p - 1] != k:
+            # Already in place (a record of an earlier column is below it in any case).
+            p += 1
+            continue
         q = p - 1
         full = False
-        # Move `code` left past every endpoint whose key (value, is_end) is larger.
+        # Move `code` left past every endpoint of its column whose key is larger.
         while q >= 0:
-            vq = val[a, q]
-            cq = ep[a, q]
-            if vq < v or (vq == v and (cq & 1) <= is_end):
+            vq = va[q]
+            cq = ea[q]
+            if ca[q] != k or vq < v or (vq == v and (cq & 1) <= is_end):
                 break
-            qlo_b = other[q, 0]
-            qhi_b = other[q, 1]
-            qlo_c = other[q, 2]
-            qhi_c = other[q, 3]
-            # Bitwise, not short-circuit: one well-predicted branch instead of five
-            # data-dependent ones (transitions are rare).
-            if (
-                ((cq & 1) != is_end)
-                & (lo_b <= qhi_b)
-                & (qlo_b <= hi_b)
-                & (lo_c <= qhi_c)
-                & (qlo_c <= hi_c)
-            ):
-                # The other two counter terms hold, so this swap moves the counter between
-                # 2 and 3: a begin passing an end leftwards starts the pair, an end passing
-                # a begin ends it.
-                if nlog == capacity:
-                    full = True
-                    break
-                log_keys[nlog] = pair_key(code >> 1, cq >> 1)
-                log_start[nlog] = 1 - is_end
-                nlog += 1
-            val[a, q + 1] = vq
-            ep[a, q + 1] = cq
-            other[q + 1, 0] = qlo_b
-            other[q + 1, 1] = qhi_b
-            other[q + 1, 2] = qlo_c
-            other[q + 1, 3] = qhi_c
+            if (cq & 1) != is_end:
+                i = code >> 1
+                j = cq >> 1
+                # Bitwise, not short-circuit: one well-predicted branch instead of four
+                # data-dependent ones (transitions are rare).
+                if (
+                    (box_b[i, 2 * b] <= box_b[j, 2 * b + 1])
+                    & (box_b[j, 2 * b] <= box_b[i, 2 * b + 1])
+                    & (box_c[i, 2 * c] <= box_c[j, 2 * c + 1])
+                    & (box_c[j, 2 * c] <= box_c[i, 2 * c + 1])
+                ):
+                    canonical = max(cells_b[i, 2 * b], cells_b[j, 2 * b]) * gc + max(
+                        cells_c[i, 2 * c], cells_c[j, 2 * c]
+                    )
+                    if canonical == k:
+                        # A begin passing an end leftwards starts the pair, an end passing
+                        # a begin ends it.
+                        if nlog == capacity:
+                            full = True
+                            break
+                        log_keys[nlog] = pair_key(i, j)
+                        log_start[nlog] = 1 - is_end
+                        nlog += 1
+            va[q + 1] = vq
+            ea[q + 1] = cq
             swaps += 1
             q -= 1
-        val[a, q + 1] = v
-        ep[a, q + 1] = code
-        other[q + 1, 0] = lo_b
-        other[q + 1, 1] = hi_b
-        other[q + 1, 2] = lo_c
-        other[q + 1, 3] = hi_c
+        va[q + 1] = v
+        ea[q + 1] = code
         if full:
             return q + 1, nlog, swaps
         p += 1
@@ -269,24 +291,23 @@ def _apply_log(keys, flags, meta, log_keys, log_start, nlog, touched, ntouched):
 
 
 @njit
-def insertion_sort_frame(box, old_box, val, ep, other, keys, flags, meta, budget, log_keys,
-                         log_start):  # fmt: skip
-    """One coherent frame: insertion-sort each axis by the new coordinates.
+def insertion_sort_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved,
+                         keys, flags, meta, budget, log_keys, log_start):  # fmt: skip
+    """One coherent frame: move each axis's records into their columns and insertion-sort them.
 
-    Every adjacent swap of a begin and an end changes one term of that pair's overlap counter;
-    when the other two terms hold, the pair enters or leaves the set. Expected cost
-    O(n + swaps), swaps = endpoint crossings since the last frame (thesis 4.7).
+    Expected cost O(n + records + swaps), swaps = endpoint crossings inside columns since the
+    last frame (thesis 4.7).
 
     Parameters
     ----------
-    box : (n, 6) float64
-        New bounds, row ``[lo_x, hi_x, lo_y, hi_y, lo_z, hi_z]`` per id.
-    old_box : (n, 6) float64
-        Bounds of the previous frame (the ones ``val``/``ep`` are sorted by).
-    val, ep : (3, 2n)
-        Sorted state of the previous frame, updated in place.
-    other : (2n, 4) float64
-        Scratch for the other two axes' bounds of each record (no meaning between calls).
+    box, cells : (n, 6) float64, (n, 6) int32
+        New bounds and their cells.
+    old_box, old_cells : (n, 6) float64, (n, 6) int32
+        Bounds of the previous frame (the ones the records are sorted by) and their cells.
+    grid : (3, 3) float64
+    val, ep, col, count, rng : the records (``_sap_columns``); updated, may be reallocated.
+    moved : (n,) uint8
+        Zero scratch.
     keys, flags, meta : pair table (see ``pair_table``); may be reallocated.
     budget : int
         Stop with ``OVER_BUDGET`` once more swaps than this were made (the caller then
@@ -304,27 +325,44 @@ def insertion_sort_frame(box, old_box, val, ep, other, keys, flags, meta, budget
     keys, flags : the pair table arrays (new ones if it grew).
     touched : (t,) int64
         Keys of the pairs whose membership changed at least once this frame.
+    val, ep, col : the record arrays (new ones if they grew).
     """
-    m = ep.shape[1]
     touched = np.empty(64, dtype=np.int64)
     ntouched = 0
     swaps = 0
     for a in range(3):
-        _refresh_axis(box, old_box, val, ep, other, a)
-        p = 1
+        b = (a + 1) % 3
+        c = (a + 2) % 3
+        # The other axes as this one sees them: new when sorted earlier this frame.
+        box_b = box if b < a else old_box
+        box_c = box if c < a else old_box
+        cells_b = cells if b < a else old_cells
+        cells_c = cells if c < a else old_cells
+        gc = np.int64(grid[c, 2])
+        if np.int64(grid[b, 2]) * gc > 1:
+            val, ep, col = rebin_axis(
+                old_box, cells_b, cells_c, grid, val, ep, col, count, rng, moved, a
+            )
+        p = max(_refresh_values(box, val, ep, col, count, a), 1)
+        m = count[a]
         while p < m:
-            p, nlog, swaps = _sort_axis(val, ep, other, a, p, log_keys, log_start, swaps, budget)
+            p, nlog, swaps = _sort_axis(
+                val, ep, col, box_b, box_c, cells_b, cells_c, gc, a, p, m, log_keys, log_start,
+                swaps, budget,
+            )  # fmt: skip
             keys, flags, touched, ntouched = _apply_log(
                 keys, flags, meta, log_keys, log_start, nlog, touched, ntouched
             )
             if swaps > budget:
-                return OVER_BUDGET, swaps, keys, flags, touched[:ntouched]
-    return DONE, swaps, keys, flags, touched[:ntouched]
+                return OVER_BUDGET, swaps, keys, flags, touched[:ntouched], val, ep, col
+    return DONE, swaps, keys, flags, touched[:ntouched], val, ep, col
 
 
 @njit
-def stage_bounds(lower, upper, box, old_box, check):
-    """Copy ``lower``/``upper`` into ``box`` and predict the coming swaps, in one O(n) pass.
+def stage_bounds(lower, upper, box, cells, old_box, grid, check):
+    """Copy ``lower``/``upper`` into ``box``, their cells into ``cells``, predict the swaps.
+
+    O(n).
 
     Parameters
     ----------
@@ -332,8 +370,12 @@ def stage_bounds(lower, upper, box, old_box, check):
         New bounds as the caller gave them.
     box : (n, 6) float64
         Written: row ``[lo_x, hi_x, lo_y, hi_y, lo_z, hi_z]`` per id.
+    cells : (n, 6) int32
+        Written: the grid cells of those bounds, on the dimensions with more than one cell
+        (left as they are on the others, where every cell is 0).
     old_box : (n, 6) float64 or (0, 6)
         Previous frame's bounds (read only), or empty when there is none (no prediction).
+    grid : (3, 3) float64
     check : bool
         Stop at the first non-finite value or ``lower > upper``.
 
@@ -345,10 +387,10 @@ def stage_bounds(lower, upper, box, old_box, check):
     row, axis : int
     predicted : float
         Rough swap count of the coming insertion sort, assuming endpoints spread uniformly
-        over each axis's extent: an endpoint moving by d passes about d * (2n / extent)
-        others, and each swap moves two endpoints relative to each other. It only has to
-        tell a coherent frame from one where boxes teleport (orders of magnitude apart); the
-        swap budget is the safety net.
+        over each axis's extent and its columns: an endpoint moving by d passes about
+        d * (2n / extent / columns) others, and each swap moves two endpoints relative to
+        each other. It only has to tell a coherent frame from one where boxes teleport
+        (orders of magnitude apart); the swap budget is the safety net.
     """
     n = lower.shape[0]
     for i in range(n):
@@ -364,6 +406,9 @@ def stage_bounds(lower, upper, box, old_box, check):
                     return 3, i, a, 0.0
             box[i, 2 * a] = lo
             box[i, 2 * a + 1] = hi
+            if grid[a, 2] > 1.0:
+                cells[i, 2 * a] = cell_of(lo, grid[a, 0], grid[a, 1], grid[a, 2])
+                cells[i, 2 * a + 1] = cell_of(hi, grid[a, 0], grid[a, 1], grid[a, 2])
     if old_box.shape[0] != n or n == 0:
         return 0, 0, 0, 0.0
     total = 0.0
@@ -372,25 +417,27 @@ def stage_bounds(lower, upper, box, old_box, check):
         hi_max = -np.inf
         moved = 0.0
         for i in range(n):
-            lo_min = min(lo_min, old_box[i, 2 * a])
-            hi_max = max(hi_max, old_box[i, 2 * a + 1])
-            moved += abs(box[i, 2 * a] - old_box[i, 2 * a])
-            moved += abs(box[i, 2 * a + 1] - old_box[i, 2 * a + 1])
-        extent = hi_max - lo_min
-        if extent > 0.0:
-            total += moved * n / extent
+            lo = box[i, 2 * a]
+            hi = box[i, 2 * a + 1]
+            if lo < lo_min:
+                lo_min = lo
+            if hi > hi_max:
+                hi_max = hi
+            moved += abs(lo - old_box[i, 2 * a]) + abs(hi - old_box[i, 2 * a + 1])
+        if hi_max > lo_min:
+            columns = grid[(a + 1) % 3, 2] * grid[(a + 2) % 3, 2]
+            total += moved * n / (hi_max - lo_min) / columns
     return 0, 0, 0, total
 
 
 @njit
-def coherent_frame(box, old_box, val, ep, other, keys, flags, meta, pair_keys, budget,
-                   log_keys, log_start, no_keys):  # fmt: skip
+def coherent_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys,
+                   flags, meta, pair_keys, budget, log_keys, log_start, no_keys):  # fmt: skip
     """Insertion sort, net events and the new sorted pair list of a frame, in one call.
 
-    One kernel call per coherent frame keeps the dispatch cost of a small scene low (the
-    World calls this every step). Arguments as ``insertion_sort_frame``; ``pair_keys`` is the
-    sorted pair list of the previous frame; ``no_keys`` an empty int64 array, returned as
-    the events of a frame without any.
+    Arguments as ``insertion_sort_frame``; ``pair_keys`` is the sorted pair list of the
+    previous frame; ``no_keys`` an empty int64 array, returned as the events of a frame
+    without any.
 
     Returns
     -------
@@ -401,18 +448,21 @@ def coherent_frame(box, old_box, val, ep, other, keys, flags, meta, pair_keys, b
         ``status`` is ``OVER_BUDGET``).
     added, removed : (k_a,) int64, (k_r,) int64
         Sorted keys of the frame's net events (empty when ``OVER_BUDGET``).
+    val, ep, col
+        The record arrays (new ones if they grew).
     """
-    status, swaps, keys, flags, touched = insertion_sort_frame(
-        box, old_box, val, ep, other, keys, flags, meta, budget, log_keys, log_start
-    )
+    status, swaps, keys, flags, touched, val, ep, col = insertion_sort_frame(
+        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys, flags,
+        meta, budget, log_keys, log_start,
+    )  # fmt: skip
     if status != DONE or touched.shape[0] == 0:
         # Nothing to collect. Handing back arrays the caller passed in is cheap: numba
         # returns their Python objects instead of wrapping new ones.
-        return status, swaps, keys, flags, pair_keys, no_keys, no_keys
+        return status, swaps, keys, flags, pair_keys, no_keys, no_keys, val, ep, col
     added, removed = collect_events(keys, flags, meta, touched)
     if added.shape[0] or removed.shape[0]:
         pair_keys = merge_pair_keys(pair_keys, removed, added)
-    return status, swaps, keys, flags, pair_keys, added, removed
+    return status, swaps, keys, flags, pair_keys, added, removed, val, ep, col
 
 
 @njit
@@ -584,19 +634,20 @@ def sweep_all_pairs(box, ep, axis):
 
 
 @njit
-def update_frame(lower, upper, box, old_box, val, ep, other, keys, flags, meta, pair_keys,
-                 budget, skip_above, check, log_keys, log_start, no_keys):  # fmt: skip
+def update_frame(lower, upper, box, old_box, cells, old_cells, grid, val, ep, col, count, rng,
+                 moved, keys, flags, meta, pair_keys, budget, skip_above, check, log_keys,
+                 log_start, no_keys):  # fmt: skip
     """A whole ``SweepAndPrune.update`` frame in one kernel call (stage, sort, events).
 
     Parameters
     ----------
     lower, upper : (n, 3) float64
         New bounds as the caller gave them.
-    box : (n, 6) float64
-        Spare table, written with the new bounds (see ``stage_bounds``).
-    old_box : (n, 6) float64
-        Current bounds: the ones ``val``/``ep`` are sorted by.
-    val, ep, other, keys, flags, meta, budget, log_keys, log_start
+    box, cells : (n, 6) float64, (n, 6) int32
+        Spare tables, written with the new bounds and their cells (see ``stage_bounds``).
+    old_box, old_cells : (n, 6) float64, (n, 6) int32
+        Current bounds (the ones the records are sorted by) and their cells.
+    grid, val, ep, col, count, rng, moved, keys, flags, meta, budget, log_keys, log_start
         As ``insertion_sort_frame``.
     pair_keys : (k,) int64
         Sorted pair list of the previous frame.
@@ -615,16 +666,16 @@ def update_frame(lower, upper, box, old_box, val, ep, other, keys, flags, meta, 
     bad, row, axis : int
         From ``stage_bounds``.
     predicted : float
-    swaps, keys, flags, pair_keys, added, removed
+    swaps, keys, flags, pair_keys, added, removed, val, ep, col
         As ``coherent_frame``.
     """
-    bad, row, axis, predicted = stage_bounds(lower, upper, box, old_box, check)
-    if bad:
-        return BAD_BOUNDS, bad, row, axis, predicted, 0, keys, flags, pair_keys, no_keys, no_keys
-    if predicted > skip_above:
-        return PREDICTED_OVER, 0, 0, 0, predicted, 0, keys, flags, pair_keys, no_keys, no_keys
-    status, swaps, keys, flags, pair_keys, added, removed = coherent_frame(
-        box, old_box, val, ep, other, keys, flags, meta, pair_keys, budget, log_keys, log_start,
-        no_keys,
+    bad, row, axis, predicted = stage_bounds(lower, upper, box, cells, old_box, grid, check)
+    if bad or predicted > skip_above:
+        status = BAD_BOUNDS if bad else PREDICTED_OVER
+        return (status, bad, row, axis, predicted, 0, keys, flags, pair_keys, no_keys, no_keys,
+                val, ep, col)  # fmt: skip
+    status, swaps, keys, flags, pair_keys, added, removed, val, ep, col = coherent_frame(
+        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys, flags, meta,
+        pair_keys, budget, log_keys, log_start, no_keys,
     )  # fmt: skip
-    return status, 0, 0, 0, predicted, swaps, keys, flags, pair_keys, added, removed
+    return status, 0, 0, 0, predicted, swaps, keys, flags, pair_keys, added, removed, val, ep, col

@@ -1,8 +1,8 @@
 """numba kernels that change the sweep-and-prune's membership: objects added and removed.
 
-They work on the flat state described in ``_sap_kernels`` (``box``, ``val``, ``ep`` and the
-sorted pair keys): new objects are merged into the sorted axes without a re-sort, removed ones
-compacted out with the survivors renumbered in order.
+They work on the flat state described in ``_sap_kernels`` and ``_sap_columns`` (bounds, the
+records of each axis and the sorted pair keys): new objects are merged into the sorted columns
+without a re-sort, removed ones compacted out with the survivors renumbered in order.
 """
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision._sap_kernels import _sort_endpoints
+from thesis_rbd.collision._sap_columns import merge_records, new_records
 from thesis_rbd.collision.pair_table import pair_key
 
-__all__ = ["compact_removed", "merge_endpoints", "pairs_with_new"]
+__all__ = ["compact_removed", "merge_new_boxes", "pairs_with_new"]
 
 
 @njit
@@ -45,58 +45,58 @@ def pairs_with_new(box, first_new):
 
 
 @njit
-def merge_endpoints(val, ep, new_box, first_id):
-    """Insert the endpoints of new boxes (ids ``first_id ...``) into sorted axes.
+def merge_new_boxes(box, cells, grid, val, ep, col, count, rng, first_id):
+    """Insert the records of new boxes (ids ``first_id ...``) into every axis, no re-sort.
 
-    O(n + m log m) for m new boxes: the new endpoints are sorted, then merged.
-
-    Returns
-    -------
-    val, ep : (3, 2(n + m)) float64, int64
-    """
-    old_m = ep.shape[1]
-    add_m = 2 * new_box.shape[0]
-    out_val = np.empty((3, old_m + add_m), dtype=np.float64)
-    out_ep = np.empty((3, old_m + add_m), dtype=np.int64)
-    for a in range(3):
-        nv, ne = _sort_endpoints(new_box[:, 2 * a].copy(), new_box[:, 2 * a + 1].copy(), first_id)
-        s = 0
-        t = 0
-        for o in range(old_m + add_m):
-            take_old = False
-            if t == add_m:
-                take_old = True
-            elif s < old_m:
-                vo = val[a, s]
-                vn = nv[t]
-                take_old = vo < vn or (vo == vn and (ep[a, s] & 1) <= (ne[t] & 1))
-            if take_old:
-                out_val[a, o] = val[a, s]
-                out_ep[a, o] = ep[a, s]
-                s += 1
-            else:
-                out_val[a, o] = nv[t]
-                out_ep[a, o] = ne[t]
-                t += 1
-    return out_val, out_ep
-
-
-@njit
-def compact_removed(val, ep, pair_keys, gone):
-    """Drop objects with ``gone[id]`` and renumber the rest densely, order kept.
-
-    The renumbering ``new_id = id - (number of gone ids below id)`` is increasing, so sorted
-    endpoint arrays and sorted pair keys stay sorted: no re-sort.
+    O(records + r log r) for r new records: they are sorted, then merged.
 
     Parameters
     ----------
-    val, ep : (3, 2n)
+    box, cells : (n, 6) float64, (n, 6) int32
+        Bounds and cells of all objects, the new ones last.
+    grid, val, ep, col, count, rng
+        As ``_sap_columns`` describes, of the first ``first_id`` objects.
+
+    Returns
+    -------
+    val, ep, col : the record arrays (new ones if they grew)
+    rng : (3, n, 4) int32, a new array
+    """
+    n = box.shape[0]
+    ids = np.arange(first_id, n)
+    out = np.empty((3, n, 4), dtype=np.int32)
+    out[:, :first_id] = rng
+    for a in range(3):
+        b = (a + 1) % 3
+        c = (a + 2) % 3
+        for i in range(first_id, n):
+            out[a, i, 0] = cells[i, 2 * b]
+            out[a, i, 1] = cells[i, 2 * b + 1]
+            out[a, i, 2] = cells[i, 2 * c]
+            out[a, i, 3] = cells[i, 2 * c + 1]
+        rv, re, rc = new_records(box, cells, grid, ids, a)
+        val, ep, col = merge_records(val, ep, col, count, a, rv, re, rc)
+    return val, ep, col, out
+
+
+@njit
+def compact_removed(val, ep, col, count, rng, pair_keys, gone):
+    """Drop objects with ``gone[id]`` and renumber the rest densely, order kept.
+
+    The renumbering ``new_id = id - (number of gone ids below id)`` is increasing, so sorted
+    records and sorted pair keys stay sorted: no re-sort. The records are compacted in place
+    (``count`` updated).
+
+    Parameters
+    ----------
+    val, ep, col, count, rng
+        As ``_sap_columns`` describes.
     pair_keys : (k,) int64 sorted
     gone : (n,) bool
 
     Returns
     -------
-    val, ep : (3, 2(n - r)) float64, int64
+    rng : (3, n - r, 4) int32, a new array
     kept_keys : sorted keys of the surviving pairs, renumbered
     removed_keys : sorted keys (old numbering) of the pairs that involved a gone object
     """
@@ -109,17 +109,21 @@ def compact_removed(val, ep, pair_keys, gone):
         else:
             new_id[i] = alive
             alive += 1
-    out_val = np.empty((3, 2 * alive), dtype=np.float64)
-    out_ep = np.empty((3, 2 * alive), dtype=np.int64)
+    out_rng = np.empty((3, alive, 4), dtype=np.int32)
     for a in range(3):
+        for i in range(n):
+            if new_id[i] >= 0:
+                out_rng[a, new_id[i]] = rng[a, i]
         o = 0
-        for p in range(ep.shape[1]):
-            c = ep[a, p]
-            i = new_id[c >> 1]
+        for p in range(count[a]):
+            code = ep[a, p]
+            i = new_id[code >> 1]
             if i >= 0:
-                out_val[a, o] = val[a, p]
-                out_ep[a, o] = 2 * i + (c & 1)
+                val[a, o] = val[a, p]
+                ep[a, o] = 2 * i + (code & 1)
+                col[a, o] = col[a, p]
                 o += 1
+        count[a] = o
     kept = np.empty(pair_keys.shape[0], dtype=np.int64)
     removed = np.empty(pair_keys.shape[0], dtype=np.int64)
     nk = 0
@@ -134,4 +138,4 @@ def compact_removed(val, ep, pair_keys, gone):
         else:
             kept[nk] = (i << 32) | j
             nk += 1
-    return out_val, out_ep, kept[:nk], removed[:nr]
+    return out_rng, kept[:nk], removed[:nr]

@@ -9,8 +9,12 @@ overlap list, 5.3). When a frame is incoherent (many boxes teleport) insertion s
 towards O(n^2); past a swap budget priced like a full rebuild, the frame is abandoned and
 rebuilt by sorting from scratch and one sort-and-sweep, O(n log n + k_axis).
 
-All the work is in the numba kernels of ``_sap_kernels.py`` over flat arrays; this module
-checks input, owns the state and decides which kernel runs.
+In a large scene each axis is sorted per column of a coarse grid across it (a multi-SAP,
+``_sap_grid.py``), so that an endpoint only passes the endpoints of its own column and a
+coherent frame stays O(n) instead of O(n^(5/3)) at constant density; the grid is chosen at
+every full rebuild. All the work is in numba kernels over flat arrays (``_sap_kernels.py``,
+``_sap_columns.py``, ``_sap_membership.py``); this module checks input, owns the state and
+decides which kernel runs.
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ import numpy as np
 
 from thesis_rbd.collision import _sap_kernels as kernels
 from thesis_rbd.collision import _sap_membership as membership
+from thesis_rbd.collision._sap_columns import build_axes
+from thesis_rbd.collision._sap_grid import choose_grid, compute_cells, single_cell_grid
 from thesis_rbd.collision.pair_table import keys_to_pairs, new_table, table_from_keys
 
 __all__ = ["SweepAndPrune"]
@@ -28,6 +34,7 @@ __all__ = ["SweepAndPrune"]
 _EMPTY_PAIRS = np.empty((0, 2), dtype=np.int64)
 _EMPTY_PAIRS.flags.writeable = False
 _NO_BOX = np.empty((0, 6), dtype=np.float64)
+_ONE_CELL = single_cell_grid()
 _NO_KEYS = np.empty(0, dtype=np.int64)
 _INT64_MAX = int(np.iinfo(np.int64).max)
 
@@ -81,20 +88,17 @@ def _bad_bounds(bad: int, row: int, axis: int, lo: np.ndarray, hi: np.ndarray) -
     )
 
 
-def _staged(lower, upper) -> np.ndarray:
-    """Validated (n, 6) box table of ``lower``/``upper`` (a new array), or ValueError."""
-    lo, hi = _check_shapes(lower, upper)
-    box = np.empty((lo.shape[0], 6), dtype=np.float64)
-    bad, row, axis, _ = kernels.stage_bounds(lo, hi, box, _NO_BOX, True)
-    if bad:
-        raise _bad_bounds(bad, row, axis, lo, hi)
-    return box
-
-
-def _staged_trusted(lower, upper) -> np.ndarray:
-    """(n, 6) box table of bounds the caller vouches for (see ``update(check=False)``)."""
+def _staged(lower, upper, check: bool = True) -> np.ndarray:
+    """(n, 6) box table of ``lower``/``upper`` (a new array); validated (or ValueError) if
+    ``check``, else the caller vouches for them (see ``update(check=False)``)."""
+    if check:
+        lower, upper = _check_shapes(lower, upper)
     box = np.empty((lower.shape[0], 6), dtype=np.float64)
-    kernels.stage_bounds(lower, upper, box, _NO_BOX, False)
+    # Cells are not needed here: the grid is chosen afterwards, from these very bounds.
+    cells = np.empty((lower.shape[0], 6), dtype=np.int32)
+    bad, row, axis, _ = kernels.stage_bounds(lower, upper, box, cells, _NO_BOX, _ONE_CELL, check)
+    if bad:
+        raise _bad_bounds(bad, row, axis, lower, upper)
     return box
 
 
@@ -145,13 +149,22 @@ class SweepAndPrune:
         self._log_keys = np.empty(0, dtype=np.int64)
         self._log_start = np.empty(0, dtype=np.uint8)
         self._prediction_margin = _PREDICTION_MARGIN
-        # Bounds by id (see _sap_kernels): the current table and a spare one that the next
-        # frame is written into, so that no frame allocates.
+        # Keyword arguments of choose_grid (tests ask for many columns from a few boxes).
+        self._grid_options: dict = {}
+        # Bounds and their cells by id (see _sap_kernels): the current tables and spare ones
+        # that the next frame is written into, so that no frame allocates.
         self._box = np.empty((0, 6), dtype=np.float64)
         self._spare = np.empty((0, 6), dtype=np.float64)
+        self._cells = np.empty((0, 6), dtype=np.int32)
+        self._spare_cells = np.empty((0, 6), dtype=np.int32)
+        self._moved = np.zeros(0, dtype=np.uint8)
+        self._grid = single_cell_grid()
+        # Endpoint records per axis and grid column (see _sap_columns).
         self._val = np.empty((3, 0), dtype=np.float64)
         self._ep = np.empty((3, 0), dtype=np.int64)
-        self._other = np.empty((0, 4), dtype=np.float64)
+        self._col = np.empty((3, 0), dtype=np.int32)
+        self._count = np.zeros(3, dtype=np.int64)
+        self._rng = np.empty((3, 0, 4), dtype=np.int32)
         self._keys, self._flags, self._meta = new_table(0)
         self._pair_keys = np.empty(0, dtype=np.int64)
         self._pairs_cache: np.ndarray | None = _EMPTY_PAIRS
@@ -238,8 +251,7 @@ class SweepAndPrune:
         n = lower.shape[0]
         box = self._box
         if box.shape[0] == 0:
-            self._box = _staged(lower, upper) if check else _staged_trusted(lower, upper)
-            self._spare = np.empty_like(self._box)
+            self._set_box(_staged(lower, upper, check))
             added, removed = self._rebuild(budget=0, swaps=0)
             return _to_pairs(added), _to_pairs(removed)
         if n != box.shape[0]:
@@ -258,17 +270,20 @@ class SweepAndPrune:
         else:
             skip_above = math.inf
         spare = self._spare
-        status, bad, row, axis, predicted, swaps, keys, flags, pair_keys, added, removed = (
-            kernels.update_frame(
-                lower, upper, spare, box, self._val, self._ep, self._other, self._keys,
-                self._flags, self._meta, self._pair_keys, budget, skip_above, check,
-                self._log_keys, self._log_start, _NO_KEYS,
-            )
+        cells = self._cells
+        spare_cells = self._spare_cells
+        (status, bad, row, axis, predicted, swaps, keys, flags, pair_keys, added, removed,
+         self._val, self._ep, self._col) = kernels.update_frame(
+            lower, upper, spare, box, spare_cells, cells, self._grid, self._val, self._ep,
+            self._col, self._count, self._rng, self._moved, self._keys, self._flags, self._meta,
+            self._pair_keys, budget, skip_above, check, self._log_keys, self._log_start,
+            _NO_KEYS,
         )  # fmt: skip
         if status == kernels.BAD_BOUNDS:
             raise _bad_bounds(bad, row, axis, lower, upper)
-        # The spare table holds the new bounds now; the old table becomes the spare.
+        # The spare tables hold the new bounds now; the old tables become the spares.
         self._box, self._spare = spare, box
+        self._cells, self._spare_cells = spare_cells, cells
         self._keys, self._flags = keys, flags
         if status == kernels.DONE:
             if added.shape[0] or removed.shape[0]:
@@ -316,8 +331,12 @@ class SweepAndPrune:
             assert removed.shape[0] == 0  # old boxes did not move, so no pair can end
             return ids, keys_to_pairs(added)
         new_keys = membership.pairs_with_new(all_box, first)
-        self._val, self._ep = membership.merge_endpoints(self._val, self._ep, new_box, first)
-        self._set_box(all_box)
+        all_cells = np.concatenate([self._cells, compute_cells(new_box, self._grid)])
+        self._val, self._ep, self._col, self._rng = membership.merge_new_boxes(
+            all_box, all_cells, self._grid, self._val, self._ep, self._col, self._count,
+            self._rng, first,
+        )  # fmt: skip
+        self._set_box(all_box, all_cells)
         self._set_pair_keys(kernels.merge_pair_keys(self._pair_keys, new_keys[:0], new_keys))
         self._keys, self._flags, self._meta = table_from_keys(self._pair_keys)
         self._record(0, False, 0, new_keys.shape[0], 0)
@@ -354,11 +373,10 @@ class SweepAndPrune:
             raise ValueError("ids must be distinct")
         gone = np.zeros(n, dtype=bool)
         gone[idx] = True
-        val, ep, kept, removed = membership.compact_removed(
-            self._val, self._ep, self._pair_keys, gone
+        self._rng, kept, removed = membership.compact_removed(
+            self._val, self._ep, self._col, self._count, self._rng, self._pair_keys, gone
         )
-        self._val, self._ep = val, ep
-        self._set_box(self._box[~gone])
+        self._set_box(self._box[~gone], self._cells[~gone])
         self._set_pair_keys(kept)
         self._keys, self._flags, self._meta = table_from_keys(kept)
         self._record(0, False, 0, 0, removed.shape[0])
@@ -373,27 +391,34 @@ class SweepAndPrune:
 
     def _swap_budget(self) -> int:
         """Swaps after which a frame is abandoned for a rebuild (cached per object set)."""
-        m = self._ep.shape[1]
+        m = 2 * len(self)
         if self._budget_for != (m, self._sweep_checks):
             self._budget_for = (m, self._sweep_checks)
             incremental = self.strategy == "incremental"
             self._budget = _INT64_MAX if incremental else self._rebuild_price(m)
         return self._budget
 
-    def _set_box(self, box: np.ndarray) -> None:
-        """New object set: its bounds table, a spare of the same size, scratch records."""
+    def _set_box(self, box: np.ndarray, cells: np.ndarray | None = None) -> None:
+        """New object set: its bounds (and cells) tables, spares of the same size, scratch."""
         self._box = np.ascontiguousarray(box)
         self._spare = np.empty_like(self._box)
-        self._other = np.empty((2 * self._box.shape[0], 4), dtype=np.float64)
+        if cells is not None:
+            self._cells = np.ascontiguousarray(cells)
+            # Zeros: stage_bounds leaves the cells of a one-cell dimension untouched.
+            self._spare_cells = np.zeros_like(self._cells)
+        self._moved = np.zeros(self._box.shape[0], dtype=np.uint8)
 
     def _rebuild(self, budget: int, swaps: int) -> tuple[np.ndarray, np.ndarray]:
-        """Sort from scratch, sweep the axis with fewest overlaps, diff against the old set."""
-        if self._other.shape[0] != 2 * self._box.shape[0]:
-            self._other = np.empty((2 * self._box.shape[0], 4), dtype=np.float64)
-        self._val, self._ep = kernels.sort_axes(self._box)
-        per_axis = kernels.axis_overlap_counts(self._ep)
+        """Choose the grid, sort from scratch, sweep the axis with fewest overlaps, diff."""
+        self._grid, cells = choose_grid(self._box, **self._grid_options)
+        self._set_box(self._box, cells)
+        gval, gep = kernels.sort_axes(self._box)
+        per_axis = kernels.axis_overlap_counts(gep)
         axis = int(np.argmin(per_axis))
-        new_keys = kernels.sweep_all_pairs(self._box, self._ep, axis)
+        new_keys = kernels.sweep_all_pairs(self._box, gep, axis)
+        self._val, self._ep, self._col, self._count, self._rng = build_axes(
+            gval, gep, cells, self._grid
+        )
         self._sweep_checks = int(per_axis[axis])
         added, removed = kernels.diff_sorted(self._pair_keys, new_keys)
         self._set_pair_keys(new_keys)
@@ -409,22 +434,34 @@ class SweepAndPrune:
         self._last = (swaps, full, budget, 0.0, added, removed)
 
     def _check_invariants(self) -> None:
-        """Assert the internal state is consistent (tests and debugging; O(n log n + k))."""
+        """Assert the internal state is consistent (tests and debugging; O(records log))."""
         n = len(self)
-        m = 2 * n
-        assert self._val.shape == (3, m) and self._ep.shape == (3, m)
         assert self._spare.shape == self._box.shape == (n, 6)
-        assert self._other.shape == (m, 4)
+        assert self._spare_cells.shape == self._cells.shape == (n, 6)
+        assert np.array_equal(self._cells, compute_cells(self._box, self._grid)), "stale cells"
+        assert self._moved.shape == (n,) and not self._moved.any()
+        assert self._rng.shape == (3, n, 4)
         for a in range(3):
-            ep = self._ep[a]
-            assert np.array_equal(np.sort(ep), np.arange(m)), "endpoint codes not a permutation"
+            m = int(self._count[a])
+            ep, col, val = self._ep[a, :m], self._col[a, :m], self._val[a, :m]
             ids, is_end = ep >> 1, ep & 1
-            expected = self._box[ids, 2 * a + is_end]
-            assert np.array_equal(self._val[a], expected), "stale endpoint values"
-            key_ok = (self._val[a][:-1] < self._val[a][1:]) | (
-                (self._val[a][:-1] == self._val[a][1:]) & (is_end[:-1] <= is_end[1:])
+            assert np.array_equal(val, self._box[ids, 2 * a + is_end]), "stale endpoint values"
+            key_ok = (col[:-1] < col[1:]) | (
+                (col[:-1] == col[1:])
+                & ((val[:-1] < val[1:]) | ((val[:-1] == val[1:]) & (is_end[:-1] <= is_end[1:])))
             )
-            assert key_ok.all(), f"axis {a} not sorted by (value, is_end)"
+            assert key_ok.all(), f"axis {a} not sorted by (column, value, is_end)"
+            # Every box has a begin and an end record in each column of its range, no others.
+            gc = int(self._grid[(a + 2) % 3, 2])
+            want = set()
+            for i, (b0, b1, c0, c1) in enumerate(self._rng[a].tolist()):
+                for kb in range(b0, b1 + 1):
+                    for kc in range(c0, c1 + 1):
+                        want |= {(2 * i, kb * gc + kc), (2 * i + 1, kb * gc + kc)}
+            got = list(zip(ep.tolist(), col.tolist(), strict=True))
+            assert len(got) == len(set(got)) and set(got) == want, f"axis {a} records"
+        # The last axis sorted (z) is binned by the current bounds of the other two.
+        assert np.array_equal(self._rng[2], self._cells[:, [0, 1, 2, 3]])
         keys = self._pair_keys
         assert np.all(keys[:-1] < keys[1:]), "pair keys not strictly increasing"
         in_table = np.sort(self._keys[self._keys >= 0])
