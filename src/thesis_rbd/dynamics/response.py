@@ -384,7 +384,9 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     b.linear_momentum[moved] = v[moved] / b.inverse_mass[moved, None]
     # contacts found at the time of impact are not projected: the bodies have moved on
     depths = np.where(body_rewind[body_a] + body_rewind[body_b] > 0, 0.0, contacts["depths"])
-    max_depth = _project_positions(b, frame, depths, island_start, inverse_inertia, settings)
+    max_depth = _project_positions(
+        b, frame, depths, friction, island_start, inverse_inertia, settings
+    )
     contacts["impulses"] = impulse
     return contacts, {
         "islands": len(island_start) - 1,
@@ -472,8 +474,15 @@ def _bisect_time_of_impact(b, members, pairs, v, w, acceleration, dt, detector, 
     return inside
 
 
-def _project_positions(b, frame, depths, island_start, inverse_inertia, settings) -> float:
-    """Remove penetration beyond ``slop`` by a frictionless normal solve on pseudo-velocities.
+def _project_positions(b, frame, depths, friction, island_start, inverse_inertia, settings):
+    """Remove penetration beyond ``slop`` by a contact solve on pseudo-velocities.
+
+    With the exact solver the pseudo-velocity problem has the contacts' friction: without
+    it, lifting a heavy stack off a floor it sank into pushes a light box between two
+    slightly tilted faces sideways (1 um per step, a creep of 0.24 mm/s in a mass-ratio
+    stack). PGS solves it frictionless, as Bullet's split impulse does: its tangential
+    pseudo-impulses are not converged and moved a ten-cube stack's top 2.2 mm in 10 s
+    instead of 0.7 mm.
 
     Returns the largest penetration left, estimated from the pseudo-velocities.
     """
@@ -483,17 +492,16 @@ def _project_positions(b, frame, depths, island_start, inverse_inertia, settings
     n = b.count
     dx, dtheta = np.zeros((n, 3)), np.zeros((n, 3))
     pseudo = (dx, dtheta, b.inverse_mass, inverse_inertia)
-    c = len(depths)
     _solve_islands(
         _SOLVERS.index(settings.solver),
         settings.iterations,
-        3,
+        settings.friction_sides,
         island_start,
         frame,
         -excess,
-        np.zeros(c),
+        friction if settings.solver == "exact" else np.zeros_like(friction),
         pseudo,
-        np.zeros((c, 3)),
+        np.zeros((len(depths), 3)),
     )
     separation = _normal_velocities(frame, pseudo)
     _apply_pseudo_motion(n, dx, dtheta, b.full("position"), b.full("orientation"))
