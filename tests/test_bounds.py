@@ -32,13 +32,12 @@ def tight_boxes(world, members=None, fast=None):
 
 def fit_fat_boxes(world, frozen, everything=True):
     """(refit, fast_count, slowest, fat, fast) of ``update_fat_bounds`` on a world's state."""
-    b, c = world.bodies, world._collision
+    b = world.bodies
     n = len(world)
     fat, fast = np.zeros((2, n, 3)), np.zeros(n, bool)
     result = update_fat_bounds(
-        n, everything, frozen, c.box_offset, c.box_half, b.size, b.position, b.orientation,
-        world._start_position, b.linear_momentum, b.inverse_mass, PREDICTION_STEPS * world.dt,
-        fat, fast,
+        n, everything, frozen, b.size, b.position, world._start_position, b.linear_momentum,
+        b.inverse_mass, PREDICTION_STEPS * world.dt, fat, fast,
     )  # fmt: skip
     return (*result, fat, fast)
 
@@ -72,11 +71,12 @@ def test_axis_aligned_box_is_tight_and_a_static_fat_box_is_its_tight_box():
     box = rbd.shapes.box((1.0, 2.0, 3.0))
     world = rbd.World()
     world.add_body(box, static=True, position=(5, 6, 7))
+    world.add_body(box, mass=1.0, position=(50, 0, 0))
     tight = tight_boxes(world)
     np.testing.assert_allclose(tight[0, 0], [4.5, 5, 5.5])
     np.testing.assert_allclose(tight[1, 0], [5.5, 7, 8.5])
-    _, _, _, fat, _ = fit_fat_boxes(world, np.ones(1, bool))
-    np.testing.assert_array_equal(fat, tight)
+    world.step()
+    np.testing.assert_array_equal(world._collision.fat[:, 0], tight[:, 0])
 
 
 def test_tight_box_is_the_arvo_box_clipped_to_the_bounding_sphere():

@@ -9,12 +9,17 @@ a body leaves its fat box; never a narrow phase, contact or sleep call); the pee
 alone", is the same bodies added with ``collidable=False``, whose only stage is integration.
 Target: the full step within 10 % of the peer (ratio peer / ours >= 0.91).
 
+Each benchmark steps the other world, untimed, before each of its timed steps, so both run in
+the same alternation; the full step's ``extra_info`` also holds the ratio against those
+interleaved steps (``interleaved_ratio_to_integration_alone``).
+
 Measured (2-core machine shared with three other jobs, so +-20 % run to run; ``python -m
-validation.bench_effects`` interleaves the two worlds and prints the per-stage profile):
-before (commit f8e58fc), us per step, integrate 204 / bounds 68 / broad phase 182 / sleep 27,
-full step 397-437 against 190-195 alone (2.1-2.2x); after, integrate ~200 / bounds ~6 / broad
-phase ~3 (called on 1 step in 70) / sleep 0 (never called), full step 1.03-1.06x the
-integration alone.
+validation.bench_effects`` prints the per-stage profile of interleaved blocks), us per step:
+before (commit f8e58fc) integrate 204 / bounds 68 / broad phase 182 (every step) / sleep 27,
+full step 397-437 against 190-195 alone (2.1-2.2x); after (fat boxes, skipped sleep stage)
+integrate as alone / bounds 6-7.5 / broad phase 1.7-3 (called on 1 step in ~145) / sleep 0
+(never called), full step 175.0 against 166.6 alone by minima (1.05x; interleaved medians
+1.05x quiet, up to 1.11x under load; of sequential medians anything from 0.96x to 1.2x).
 """
 
 from time import perf_counter
@@ -54,19 +59,34 @@ def far_apart_world(count: int = COUNT, collidable: bool = True) -> rbd.World:
     return world
 
 
-def _bench_steps(benchmark, world):
-    # a fixed number of single steps, so that the scene never runs into its own collisions
-    benchmark.pedantic(world.step, rounds=STEPS, iterations=1, warmup_rounds=20)
+def _bench_interleaved(benchmark, world, other) -> np.ndarray:
+    """Time ``STEPS`` single steps of ``world`` (a fixed number, so that the scene never runs
+    into its own collisions), each after an untimed step of ``other``: both worlds of the
+    group run in the same alternation, and the load of the shared machine falls on both
+    alike. Returns the seconds of ``other``'s steps that came before the timed ones."""
+    other_seconds = []
+
+    def step_other():
+        start = perf_counter()
+        other.step()
+        other_seconds.append(perf_counter() - start)
+
+    benchmark.pedantic(world.step, setup=step_other, rounds=STEPS, warmup_rounds=20)
+    return np.array(other_seconds[-STEPS:])
 
 
 def test_full_step_far_apart(benchmark):
     benchmark.group = f"far-apart bodies, no gravity, N = {COUNT}"
     benchmark.extra_info.update(bodies=COUNT, peer=False)
     world = far_apart_world()
-    _bench_steps(benchmark, world)
+    alone = _bench_interleaved(benchmark, world, far_apart_world(collidable=False))
     calls = {name: entry["calls"] for name, entry in world.profile.items()}
     assert calls["narrow_phase"] == calls["contacts"] == calls["sleep"] == 0
     benchmark.extra_info.update(broad_phase_calls=calls["broad_phase"], steps=calls["integrate"])
+    if not benchmark.disabled:
+        # the same ratio from the steps of the peer's world interleaved with ours
+        ours = np.median(benchmark.stats.stats.data)
+        benchmark.extra_info.update(interleaved_ratio_to_integration_alone=ours / np.median(alone))
 
 
 def test_integration_alone_far_apart(benchmark):
@@ -74,7 +94,7 @@ def test_integration_alone_far_apart(benchmark):
     benchmark.extra_info.update(bodies=COUNT, peer="integration alone")
     world = far_apart_world(collidable=False)
     assert world.stages == ["integrate"]
-    _bench_steps(benchmark, world)
+    _bench_interleaved(benchmark, world, far_apart_world())
 
 
 def interleaved_profile(repeats: int = 20, steps: int = 100) -> dict:

@@ -56,8 +56,8 @@ def _posed_box(R, offset, half, x, radius, lower, upper):
 
 @njit
 def update_fat_bounds(
-    count, everything, frozen, box_offset, box_half, radius, position, orientation,
-    start_position, linear_momentum, inverse_mass, horizon, fat, fast,
+    count, everything, frozen, radius, position, start_position, linear_momentum, inverse_mass,
+    horizon, fat, fast,
 ):  # fmt: skip
     """Find the fast bodies and check every moving body against its fat box; refit on a miss.
 
@@ -66,18 +66,14 @@ def update_fat_bounds(
     count : int
         Number of bodies n (the body arrays may be longer).
     everything : bool
-        Refit every fat box, frozen bodies' included (after a scene change).
+        Refit every moving body's fat box (after a scene change).
     frozen : (>= n,) bool
-        Bodies that did not move this step (static or asleep): their boxes are kept.
-    box_offset, box_half : (n, 3) float64
-        Mesh-frame box of each body: centre offset o from the centre of mass, half-extents h
-        (a frozen body's fat box is its tight box: it does not move).
+        Bodies that did not move this step (static or asleep): their fat boxes are kept (the
+        caller makes them their tight boxes: they do not move).
     radius : (>= n,) float64
         Bounding radius r of each body's mesh about its centre of mass.
     position, start_position : (>= n, 3) float64
         World centre of mass now and at the start of the step.
-    orientation : (>= n, 4) float64
-        (x, y, z, w) orientation now.
     linear_momentum : (>= n, 3) float64
         P, world frame: the velocity P / M predicts the motion a fat box leaves room for.
     inverse_mass : (>= n,) float64
@@ -118,15 +114,10 @@ def update_fat_bounds(
                 lower, upper = min(lower, x0[a] - r), max(upper, x0[a] + r)
             refit |= (lower < fat[0, i, a]) | (upper > fat[1, i, a])
     if refit:
-        R = np.empty((3, 3))
         for i in range(count):
             if not frozen[i]:
                 _fatten(i, position, start_position, linear_momentum, inverse_mass, radius,
                         fast, horizon, fat)  # fmt: skip
-            elif everything:
-                to_matrix_into(orientation[i], R)
-                _posed_box(R, box_offset[i], box_half[i], position[i], radius[i], fat[0, i],
-                           fat[1, i])  # fmt: skip
     return refit, fast_count, slowest
 
 
@@ -150,8 +141,10 @@ def tight_bounds(
 ):
     """Tight boxes of the bodies ``members`` (m,) int64 into ``tight`` (2, n, 3) [lower, upper].
 
-    A fast body's box also covers the sphere's box where it started the step. The other
-    arguments are as in ``update_fat_bounds``.
+    ``box_offset``, ``box_half`` (n, 3) are each body's mesh-frame box (centre offset o from
+    the centre of mass, half-extents h) and ``orientation`` (>= n, 4) its (x, y, z, w)
+    orientation; a ``fast`` body's box also covers the sphere's box where it started the step.
+    The other arguments are as in ``update_fat_bounds``.
     """
     R = np.empty((3, 3))
     for k in range(members.shape[0]):

@@ -145,11 +145,14 @@ class CollisionPipeline:
         b = bodies
         self._start_position = start_position
         refit, self.fast_count, self.slowest_speed2 = update_fat_bounds(
-            b.count, self._refit_all, frozen, self.box_offset, self.box_half, b.full("size"),
-            b.full("position"), b.full("orientation"), start_position, b.full("linear_momentum"),
-            b.full("inverse_mass"), PREDICTION_STEPS * dt, self.fat, self.fast,
+            b.count, self._refit_all, frozen, b.full("size"), b.full("position"), start_position,
+            b.full("linear_momentum"), b.full("inverse_mass"), PREDICTION_STEPS * dt, self.fat,
+            self.fast,
         )  # fmt: skip
-        self._refit_all = False
+        if self._refit_all:
+            # static and sleeping bodies do not move: their fat boxes are their tight boxes
+            self._tight_bounds(b, np.flatnonzero(frozen[: b.count]), self.fat)
+            self._refit_all = False
         self._fat_changed |= refit
 
     @property
@@ -228,18 +231,21 @@ class CollisionPipeline:
             self.pair_members = np.unique(pairs) if len(pairs) else _NO_BODIES
             self._fat_changed = False
         if len(self.fat_pairs):
-            b = bodies
-            tight_bounds(
-                self.pair_members, self.box_offset, self.box_half, b.full("size"),
-                b.full("position"), b.full("orientation"), self._start_position, self.fast,
-                self.tight,
-            )  # fmt: skip
+            self._tight_bounds(bodies, self.pair_members, self.tight)
             self.candidate_pairs = overlapping_pairs(self.fat_pairs, self.tight, resting)
         else:
             self.candidate_pairs = _NO_PAIRS
         self.stats["candidate_pairs"] = len(self.candidate_pairs)
         if len(self.candidate_pairs) == 0 and len(self.contacts["depths"]):
             self.contacts = empty_contacts()  # the narrow phase will not run this step
+
+    def _tight_bounds(self, bodies, members: np.ndarray, out: np.ndarray) -> None:
+        """Tight boxes of the bodies ``members`` (m,) into ``out`` (2, n, 3)."""
+        b = bodies
+        tight_bounds(
+            members, self.box_offset, self.box_half, b.full("size"), b.full("position"),
+            b.full("orientation"), self._start_position, self.fast, out,
+        )  # fmt: skip
 
     def narrow_phase(self, bodies) -> None:
         """Contacts of the candidate pairs, world frame, into ``contacts``."""
