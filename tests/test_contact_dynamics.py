@@ -236,3 +236,22 @@ def test_sleeping_wakes_on_touch_and_on_force():
             break
     assert not world.sleeping[resting]
     del dropped
+
+
+@pytest.mark.parametrize(
+    "option",
+    [
+        {"slop": 0.0},
+        {"slop": float("nan")},
+        {"bounce_threshold": -1.0},
+        {"contact_solver": "dantzig"},
+        {"penetration": "ignore"},
+        {"friction_sides": 2},
+        {"contact_iterations": 0},
+    ],
+)
+def test_bad_contact_settings_are_refused_with_their_name(option):
+    name = next(iter(option))
+    word = {"contact_solver": "solver", "contact_iterations": "iterations"}.get(name, name)
+    with pytest.raises(ValueError, match=word):
+        rbd.World(dt=DT, **option)

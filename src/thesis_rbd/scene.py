@@ -308,7 +308,7 @@ _CONTACT_CHECKS = {
     "contact_iterations": lambda v, w: _integer(v, w),
     "friction_sides": lambda v, w: _integer(v, w),
     "bounce_threshold": lambda v, w: _non_negative_number(v, w),
-    "slop": lambda v, w: _non_negative_number(v, w),
+    "slop": lambda v, w: _positive_number(v, w),
     "penetration": lambda v, w: _as_string(v, w),
 }
 

@@ -64,8 +64,8 @@ class ContactSettings:
         Contacts approaching slower than this (m/s) get no restitution, so resting bodies do
         not jitter.
     slop : float
-        Penetration (m) left uncorrected by the position projection; keeps resting contacts
-        alive from step to step.
+        Penetration (m) left uncorrected by the position projection, > 0: contacts are found
+        by overlap, so it is what keeps resting contacts alive from step to step.
     penetration : {"toi", "projection"}
         "toi" steps islands with an impact back to the time of impact before solving and
         projects only what remains; "projection" solves at the penetrated state and projects.
@@ -89,10 +89,17 @@ class ContactSettings:
             raise ValueError(f"iterations must be an integer >= 1, got {self.iterations!r}")
         if int(self.friction_sides) != self.friction_sides or self.friction_sides < 3:
             raise ValueError(f"friction_sides must be an integer >= 3, got {self.friction_sides!r}")
-        for name in ("bounce_threshold", "slop"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+        if not (math.isfinite(self.bounce_threshold) and self.bounce_threshold >= 0):
+            raise ValueError(
+                f"bounce_threshold must be finite and >= 0, got {self.bounce_threshold!r}"
+            )
+        if not (math.isfinite(self.slop) and self.slop > 0):
+            # contacts are found by overlap: projected to zero depth, a resting contact is
+            # lost next step and a ten-cube stack falls apart within a second
+            raise ValueError(
+                f"slop must be finite and > 0 (resting contacts need some overlap to be "
+                f"found again next step), got {self.slop!r}"
+            )
 
 
 @njit
