@@ -25,6 +25,7 @@ import time
 from functools import cache
 
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 from validation.cases import Case
 from validation.formatting import format_number
@@ -219,12 +220,15 @@ def summarise(records: list[dict], figures_dir) -> Section:
         ),
     }
     figures = [
-        _pareto(rows, "max_penetration", "largest penetration (m)", "penetration", figures_dir),
+        _pareto(
+            rows, "max_penetration", "largest penetration (m)", "penetration", 1e-7, figures_dir
+        ),
         _pareto(
             rows,
             "max_energy_error",
             f"largest |E_k/E_0 - e^(2k)|, first {BOUNCES} bounces",
             "energy",
+            1e-16,
             figures_dir,
         ),
         _trace_figure(records, figures_dir),
@@ -256,7 +260,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
     return Section(NAME, TITLE, summary, tables=[table], figures=figures)
 
 
-def _pareto(rows, key, ylabel, tag, figures_dir):
+def _pareto(rows, key, ylabel, tag, floor, figures_dir):
     fig, ax = new_axes(
         f"Impact handling: {tag} against cost", "wall-clock ms per step", ylabel, xlog=True
     )
@@ -269,8 +273,8 @@ def _pareto(rows, key, ylabel, tag, figures_dir):
             )
             if not points:
                 continue
-            # exact zeros (no penetration at all) sit on the axis floor of a log plot
-            y = [max(p[2], 1e-16) for p in points]
+            # exact zeros (no penetration at all) sit on a floor of the log axis
+            y = [max(p[2], floor) for p in points]
             ax.plot(
                 [p[1] for p in points],
                 y,
@@ -279,13 +283,15 @@ def _pareto(rows, key, ylabel, tag, figures_dir):
                 linestyle="-" if mode == "toi" else "--",
                 label=f"{style['label']}, {MODE_LABELS[mode]}",
             )
+    ax.xaxis.set_minor_formatter(NullFormatter())  # a decade or less: minor labels collide
     ax.legend(fontsize=7)
     file = f"{NAME}_{tag}.png"
     save_figure(fig, figures_dir / file)
     return Figure(
         file,
-        f"{ylabel.capitalize()} against the cost of a step; each point one step rate, solid "
-        "lines time of impact, dashed projection (zeros drawn at 1e-16).",
+        f"{ylabel[0].upper() + ylabel[1:]} against the cost of a step; each point one step "
+        "rate, solid lines time of impact, dashed projection (zeros drawn at "
+        f"{format_number(floor)}).",
     )
 
 
