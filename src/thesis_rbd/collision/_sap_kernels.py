@@ -147,8 +147,21 @@ def _touch(keys, flags, slot, touched, ntouched):
 
 
 @njit
-def _refresh_values(box, val, ep, col, count, a):
-    """Give every record of axis ``a`` its new coordinate: one gather per record.
+def _endpoint_values(box, a, out):
+    """``out[code]`` = coordinate on axis ``a`` of endpoint ``code``: a sequential copy.
+
+    The records' refresh then gathers from 16 bytes per box instead of a 48-byte row, a
+    table a third of the size that mostly stays in cache (measured at n = 10^5: a frame of
+    11-16 ms instead of 18-21 ms).
+    """
+    for i in range(box.shape[0]):
+        out[2 * i] = box[i, 2 * a]
+        out[2 * i + 1] = box[i, 2 * a + 1]
+
+
+@njit
+def _refresh_values(values, val, ep, col, count, a):
+    """Give every record of axis ``a`` its new coordinate ``values[code]``: one gather each.
 
     Returns the first record whose key is below its predecessor's (``count[a]`` when none):
     the insertion sort starts there, so a frame without swaps reads each axis once.
@@ -162,14 +175,14 @@ def _refresh_values(box, val, ep, col, count, a):
     previous_col = -1
     for p in range(m):
         code = ea[p]
-        v = box[code >> 1, 2 * a + (code & 1)]
+        v = values[code]
         va[p] = v
         k = ca[p]
         if k == previous_col and (v < previous or (v == previous and previous_end > (code & 1))):
             # Out of order: refresh the rest without looking any more.
             for r in range(p + 1, m):
                 code = ea[r]
-                va[r] = box[code >> 1, 2 * a + (code & 1)]
+                va[r] = values[code]
             return p
         previous = v
         previous_end = code & 1
@@ -292,7 +305,7 @@ def _apply_log(keys, flags, meta, log_keys, log_start, nlog, touched, ntouched):
 
 @njit
 def insertion_sort_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved,
-                         keys, flags, meta, budget, log_keys, log_start):  # fmt: skip
+                         values, keys, flags, meta, budget, log_keys, log_start):  # fmt: skip
     """One coherent frame: move each axis's records into their columns and insertion-sort them.
 
     Expected cost O(n + records + swaps), swaps = endpoint crossings inside columns since the
@@ -308,6 +321,8 @@ def insertion_sort_frame(box, old_box, cells, old_cells, grid, val, ep, col, cou
     val, ep, col, count, rng : the records (``_sap_columns``); updated, may be reallocated.
     moved : (n,) uint8
         Zero scratch.
+    values : (2n,) float64
+        Scratch.
     keys, flags, meta : pair table (see ``pair_table``); may be reallocated.
     budget : int
         Stop with ``OVER_BUDGET`` once more swaps than this were made (the caller then
@@ -343,7 +358,8 @@ def insertion_sort_frame(box, old_box, cells, old_cells, grid, val, ep, col, cou
             val, ep, col = rebin_axis(
                 old_box, cells_b, cells_c, grid, val, ep, col, count, rng, moved, a
             )
-        p = max(_refresh_values(box, val, ep, col, count, a), 1)
+        _endpoint_values(box, a, values)
+        p = max(_refresh_values(values, val, ep, col, count, a), 1)
         m = count[a]
         while p < m:
             p, nlog, swaps = _sort_axis(
@@ -431,8 +447,8 @@ def stage_bounds(lower, upper, box, cells, old_box, grid, check):
 
 
 @njit
-def coherent_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys,
-                   flags, meta, pair_keys, budget, log_keys, log_start, no_keys):  # fmt: skip
+def coherent_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, values,
+                   keys, flags, meta, pair_keys, budget, log_keys, log_start, no_keys):  # fmt: skip
     """Insertion sort, net events and the new sorted pair list of a frame, in one call.
 
     Arguments as ``insertion_sort_frame``; ``pair_keys`` is the sorted pair list of the
@@ -452,8 +468,8 @@ def coherent_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rn
         The record arrays (new ones if they grew).
     """
     status, swaps, keys, flags, touched, val, ep, col = insertion_sort_frame(
-        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys, flags,
-        meta, budget, log_keys, log_start,
+        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, values, keys,
+        flags, meta, budget, log_keys, log_start,
     )  # fmt: skip
     if status != DONE or touched.shape[0] == 0:
         # Nothing to collect. Handing back arrays the caller passed in is cheap: numba
@@ -635,7 +651,7 @@ def sweep_all_pairs(box, ep, axis):
 
 @njit
 def update_frame(lower, upper, box, old_box, cells, old_cells, grid, val, ep, col, count, rng,
-                 moved, keys, flags, meta, pair_keys, budget, skip_above, check, log_keys,
+                 moved, values, keys, flags, meta, pair_keys, budget, skip_above, check, log_keys,
                  log_start, no_keys):  # fmt: skip
     """A whole ``SweepAndPrune.update`` frame in one kernel call (stage, sort, events).
 
@@ -647,7 +663,7 @@ def update_frame(lower, upper, box, old_box, cells, old_cells, grid, val, ep, co
         Spare tables, written with the new bounds and their cells (see ``stage_bounds``).
     old_box, old_cells : (n, 6) float64, (n, 6) int32
         Current bounds (the ones the records are sorted by) and their cells.
-    grid, val, ep, col, count, rng, moved, keys, flags, meta, budget, log_keys, log_start
+    grid, val, ep, col, count, rng, moved, values, keys, flags, meta, budget, log_keys, log_start
         As ``insertion_sort_frame``.
     pair_keys : (k,) int64
         Sorted pair list of the previous frame.
@@ -675,7 +691,7 @@ def update_frame(lower, upper, box, old_box, cells, old_cells, grid, val, ep, co
         return (status, bad, row, axis, predicted, 0, keys, flags, pair_keys, no_keys, no_keys,
                 val, ep, col)  # fmt: skip
     status, swaps, keys, flags, pair_keys, added, removed, val, ep, col = coherent_frame(
-        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, keys, flags, meta,
-        pair_keys, budget, log_keys, log_start, no_keys,
+        box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, values, keys,
+        flags, meta, pair_keys, budget, log_keys, log_start, no_keys,
     )  # fmt: skip
     return status, 0, 0, 0, predicted, swaps, keys, flags, pair_keys, added, removed, val, ep, col

@@ -158,6 +158,7 @@ class SweepAndPrune:
         self._cells = np.empty((0, 6), dtype=np.int32)
         self._spare_cells = np.empty((0, 6), dtype=np.int32)
         self._moved = np.zeros(0, dtype=np.uint8)
+        self._values = np.empty(0, dtype=np.float64)
         self._grid = single_cell_grid()
         # Endpoint records per axis and grid column (see _sap_columns).
         self._val = np.empty((3, 0), dtype=np.float64)
@@ -275,9 +276,9 @@ class SweepAndPrune:
         (status, bad, row, axis, predicted, swaps, keys, flags, pair_keys, added, removed,
          self._val, self._ep, self._col) = kernels.update_frame(
             lower, upper, spare, box, spare_cells, cells, self._grid, self._val, self._ep,
-            self._col, self._count, self._rng, self._moved, self._keys, self._flags, self._meta,
-            self._pair_keys, budget, skip_above, check, self._log_keys, self._log_start,
-            _NO_KEYS,
+            self._col, self._count, self._rng, self._moved, self._values, self._keys, self._flags,
+            self._meta, self._pair_keys, budget, skip_above, check, self._log_keys,
+            self._log_start, _NO_KEYS,
         )  # fmt: skip
         if status == kernels.BAD_BOUNDS:
             raise _bad_bounds(bad, row, axis, lower, upper)
@@ -407,6 +408,7 @@ class SweepAndPrune:
             # Zeros: stage_bounds leaves the cells of a one-cell dimension untouched.
             self._spare_cells = np.zeros_like(self._cells)
         self._moved = np.zeros(self._box.shape[0], dtype=np.uint8)
+        self._values = np.empty(2 * self._box.shape[0], dtype=np.float64)
 
     def _rebuild(self, budget: int, swaps: int) -> tuple[np.ndarray, np.ndarray]:
         """Choose the grid, sort from scratch, sweep the axis with fewest overlaps, diff."""
@@ -440,6 +442,7 @@ class SweepAndPrune:
         assert self._spare_cells.shape == self._cells.shape == (n, 6)
         assert np.array_equal(self._cells, compute_cells(self._box, self._grid)), "stale cells"
         assert self._moved.shape == (n,) and not self._moved.any()
+        assert self._values.shape == (2 * n,)
         assert self._rng.shape == (3, n, 4)
         for a in range(3):
             m = int(self._count[a])
