@@ -18,8 +18,10 @@ validation.bench_effects`` prints the per-stage profile of interleaved blocks), 
 before (commit f8e58fc) integrate 204 / bounds 68 / broad phase 182 (every step) / sleep 27,
 full step 397-437 against 190-195 alone (2.1-2.2x); after (fat boxes, skipped sleep stage)
 integrate as alone / bounds 6-7.5 / broad phase 1.7-3 (called on 1 step in ~145) / sleep 0
-(never called), full step 175.0 against 166.6 alone by minima (1.05x; interleaved medians
-1.05x quiet, up to 1.11x under load; of sequential medians anything from 0.96x to 1.2x).
+(never called). Full step against the integration alone, min / median us per step and the
+interleaved ratio, three runs: 174.9 / 197.6 vs 166.7 / 184.1 (1.09x), 174.9 / 177.5 vs
+166.7 / 168.3 (1.05x), 190.7 / 202.8 vs 167.0 / 183.7 (1.10x, a loaded run); with the
+integration's start-pose copy (two np.copyto) instead of its in-kernel save, +6 us.
 """
 
 from time import perf_counter

@@ -7,7 +7,8 @@ fat boxes changed, and turns its pairs into the candidate pairs worth testing (t
 overlap, never static-static, never two resting bodies); ``narrow_phase`` turns candidates
 into contacts (``contacts`` dict, world frame, normals from body_b towards body_a). Fat boxes
 only add pairs for the tight-box test, so the candidates are those of a broad phase on tight
-boxes, at the price of one sweep-and-prune update every few dozen steps.
+boxes, while bodies in steady motion need a sweep-and-prune update only every hundred steps
+or so.
 """
 
 from __future__ import annotations
