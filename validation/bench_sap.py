@@ -19,24 +19,26 @@ box per frame. With one sorted list per axis, at constant density every endpoint
 median box edges, 11 x 11 columns per axis at 100k, 1.23 records per box), and swaps grow
 like n: 816 / 2.2k / 23k per frame at 1k / 10k / 100k.
 
-Measured on a 2-core machine shared with three other engineers' jobs (load 3-6), as minima
-over frames. Interleaved A/B, coherent 100k, CPU time per frame: before (3e64bf3, one list
-per axis) 33.8-34.6 ms, after (74a73d6) 16.2-18.1 ms. The ``__main__`` run of this module
-(wall clock), ms per frame ours / fcl / numpy: coherent 1k 0.10 / 1.04 / 0.94, 10k
-0.91 / 12.7 / 114 (14x fcl), 100k 19.4 / 228 / 4010; incoherent 1k 1.29 / 5.92 / 1.29, 10k
-22.2 / 623 / 49.9, 100k 1020 / - / 4340. Scaling figure (ms at 1k, 3k, 10k, 30k, 100k):
-fixed speed 0.062 / 0.17 / 0.65 / 2.4 / 16.3, slope 1.20 (before: 1.33 quiet, 1.48
-loaded); bounded crossings 0.057 / 0.14 / 0.44 / 1.7 / 13.4, slope 1.17 (before 1.09);
-incoherent slope 1.52. Up to 30k the coherent slope is 1.07; the step from 30k to 100k is
-memory, not swaps: the refresh of every record's coordinate is a gather by id from a 4.8 MB
-bounds table (3.1 ms per axis at 100k, 12.6 ns per record), about half the frame. A full
-rebuild costs more than before (incoherent 10k: 26 ms against 19 ms CPU time, A/B) for
-choosing the grid and filling the columns. Targets: coherent 100k <= 20 ms met (16-19 ms
-here, 35 ms before); 10k at least 3x faster than fcl met (14x); slope ~1 met to 30k, not
-at 100k (1.2 over 1k-100k). Issue 6's case, ``update(check=False)`` of 1000 far-apart boxes
-moving 1 um per frame with no events (a row of unit boxes 10 m apart): 24 us CPU time per
-call, 56-62 us before (A/B); the kernel is ~20 us of it (staging 5, each axis ~4), so the
-15 us goal is not met.
+Measured on a 2-core machine shared with three other engineers' jobs (load 3-6), as CPU time
+of the thread (wall time there counts the other jobs' turns on the core) and minima over
+frames. Interleaved A/B, coherent 100k per frame: before (3e64bf3, one list per axis)
+33.8-34.6 ms; multi-SAP (74a73d6) 16.2-18.1 ms; with the per-axis endpoint table that the
+records are refreshed from (a6c817b) 11.5-12.7 ms. The ``__main__`` run of this module at
+a6c817b, ms per frame ours / fcl / numpy (interleaved frame by frame, so each of ours starts
+with caches the peers have evicted): coherent 1k 0.11 / 1.04 / 0.90, 10k 1.11 / 22.6 / 71
+(20x fcl), 100k 16.5 / 155 / 2760; incoherent 1k 1.08 / 4.41 / 1.02, 10k 21.4 / 366 / 41.6,
+100k 705 / - / 2840. Scaling figure, ms at 1k / 3k / 10k / 30k / 100k (ours alone): fixed
+speed 0.060 / 0.145 / 0.59 / 2.49 / 11.0, slope 1.15 (before: 1.33 quiet, 1.48 loaded);
+bounded crossings 0.055 / 0.13 / 0.39 / 1.91 / 9.5, slope 1.13 (before 1.09); incoherent
+1.1 / 5.6 / 23 / 110 / 845, slope 1.41. The coherent slope is 1.10 from 1k to 30k and 1.23
+from 30k to 100k: swaps grow like n now, what grows faster is memory (the records and bounds
+of 100k boxes, ~20 MB, no longer stay in cache). A full rebuild costs more than before for
+choosing the grid and filling the columns (incoherent 10k: 26 ms against 19 ms, A/B).
+Targets: coherent 100k <= 20 ms met (11-17 ms, 34 ms before); 10k at least 3x faster than
+fcl met (20x); slope ~1 met in the swap count and to 30k in time, 1.15 over 1k-100k. Issue
+6's case, ``update(check=False)`` of 1000 far-apart boxes moving 1 um per frame with no
+events (a row of unit boxes 10 m apart): 24 us per call, 56-62 us before (A/B); the kernel
+is ~20 us of it (staging 5, each axis ~4), so the 15 us goal is not met.
 
 ``python -m validation.bench_sap FIGURE.png`` times ``SweepAndPrune.update`` against n and
 writes the log-log scaling figure with the fitted slopes.
@@ -331,10 +333,11 @@ def _has_fcl() -> bool:
 
 
 def time_per_frame(n: int, motion: str, frames: int = 10, speed_scale: float = 1.0) -> float:
-    """Fewest seconds of ``SweepAndPrune.update`` over the frames of the benchmark scene.
+    """Fewest CPU seconds of ``SweepAndPrune.update`` over the frames of the benchmark scene.
 
-    The minimum, not the median: on a machine shared with other jobs the spread is all from
-    them (the frames of one scene cost the same to within a few per cent).
+    CPU time of the thread and the minimum, not wall time and the median: on a machine shared
+    with other jobs the spread is all from them (the frames of one scene cost the same to
+    within a few per cent), and wall time counts the time they hold the core.
     """
     scene = Scene(n, motion, frames=frames)
     if speed_scale != 1.0:
@@ -345,9 +348,9 @@ def time_per_frame(n: int, motion: str, frames: int = 10, speed_scale: float = 1
     sap.update(scene.lower[0], scene.upper[0])
     times = []
     for t in range(1, len(scene.lower)):
-        start = time.perf_counter()
+        start = time.thread_time()
         sap.update(scene.lower[t], scene.upper[t])
-        times.append(time.perf_counter() - start)
+        times.append(time.thread_time() - start)
     return float(np.min(times))
 
 
@@ -393,7 +396,7 @@ def scaling_figure(path, sizes=(1_000, 3_000, 10_000, 30_000, 100_000)) -> dict:
 
 
 def peer_table(sizes=SIZES, frames: int = 5) -> list[tuple]:
-    """Fewest ms per frame of ours, fcl's manager and the NumPy sweep, interleaved in one run.
+    """Fewest CPU ms per frame of ours, fcl's manager and the NumPy sweep, interleaved in one run.
 
     Incoherent fcl at 100k is left out (about a minute per frame). Rows are
     ``(motion, n, ours, fcl or nan, numpy)``.
@@ -407,16 +410,16 @@ def peer_table(sizes=SIZES, frames: int = 5) -> list[tuple]:
             ours, fcl_t, np_t = [], [], []
             peer = FclPeer(scene) if _has_fcl() and (motion == "coherent" or n < 100_000) else None
             for t in range(1, frames + 1):
-                start = time.perf_counter()
+                start = time.thread_time()
                 sap.update(scene.lower[t], scene.upper[t])
-                ours.append(time.perf_counter() - start)
-                start = time.perf_counter()
+                ours.append(time.thread_time() - start)
+                start = time.thread_time()
                 numpy_sort_and_sweep(scene.lower[t], scene.upper[t])
-                np_t.append(time.perf_counter() - start)
+                np_t.append(time.thread_time() - start)
                 if peer is not None:
-                    start = time.perf_counter()
+                    start = time.thread_time()
                     peer.frame(scene.centres[t])
-                    fcl_t.append(time.perf_counter() - start)
+                    fcl_t.append(time.thread_time() - start)
             best = [float(np.min(x)) * 1e3 if x else float("nan") for x in (ours, fcl_t, np_t)]
             rows.append((motion, n, *best))
     return rows

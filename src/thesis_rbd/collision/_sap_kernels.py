@@ -9,6 +9,8 @@ Flat state shared by the kernels, with ``n`` objects:
     The grid cells of those bounds (``_sap_grid``).
 ``val, ep, col, count, rng``
     The endpoint records of each axis, one sorted run per grid column (``_sap_columns``).
+``values : (2n,) float64``
+    Scratch: the new coordinates of one axis by endpoint code, that the records read.
 
 Sort key of an endpoint is ``(column, value, is_end)``: on equal coordinates a begin sorts
 before an end, so intervals that only touch are seen as overlapping (closed intervals). With
