@@ -36,8 +36,8 @@ def fit_fat_boxes(world, frozen, everything=True):
     n = len(world)
     fat, fast = np.zeros((2, n, 3)), np.zeros(n, bool)
     result = update_fat_bounds(
-        n, everything, frozen, b.size, b.position, world._start_position, b.linear_momentum,
-        b.inverse_mass, PREDICTION_STEPS * world.dt, fat, fast,
+        n, everything, frozen, b.size, b.thickness, b.position, world._start_position,
+        b.linear_momentum, b.inverse_mass, PREDICTION_STEPS * world.dt, fat, fast,
     )  # fmt: skip
     return (*result, fat, fast)
 

@@ -133,6 +133,26 @@ def test_ten_cube_stack_settles_and_stays():
     assert deepest <= 1e-3
 
 
+@pytest.mark.parametrize("speed", [10.0, 30.0, 60.0])
+def test_thin_plate_falling_flat_fast_lands_on_the_floor(speed):
+    """A 1 cm plate falling flat at up to 60 m/s moves 25 thicknesses a step; its bounding
+    radius (0.42 m) is more than its step, so only its thickness shows it is fast."""
+    world = floor_world()
+    plate = world.add_body(
+        rbd.shapes.box((0.6, 0.6, 0.01)),
+        mass=1.0,
+        position=(0, 0, 1.0),
+        linear_velocity=(0, 0, -speed),
+        restitution=0.0,
+    )
+    lowest = np.inf
+    for _ in range(round(1 / DT)):
+        world.step()
+        lowest = min(lowest, world.position(plate)[2])
+    assert world.position(plate)[2] == pytest.approx(0.005, abs=1e-3)
+    assert lowest > 0.0
+
+
 def test_mass_ratio_stack_stands_with_the_exact_solver():
     """Ten cubes, masses growing geometrically to 100x at the top, each offset by up to 5 mm,
     kept awake: the exact solver holds them where they were put (pybullet's default solver

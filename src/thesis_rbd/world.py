@@ -11,7 +11,7 @@ or applied force, no forces stage; no dynamic body, nothing at all; fewer than t
 collision stages; no contact response wanted (a detection-only scene), no contacts stage. Two
 stages are also skipped step by step when they have nothing to do: the narrow phase when the
 broad phase found no candidate pair, the tunnelling check when no body moved further than its
-own size, the contact response when there is no contact, everything but the forces when all
+own thickness, the contact response when there is no contact, everything but the forces when all
 bodies sleep; a skipped stage is not called and costs nothing. So are two more: the broad
 phase while no body left its fat box and no fat boxes overlap (``collision/bounds.py``), and
 the sleep stage while every moving body is too fast to count as still, none has been still
@@ -39,6 +39,7 @@ from thesis_rbd.dynamics.response import ContactSettings, ImpulseCache, resolve_
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.geometry.mass import mass_properties
 from thesis_rbd.geometry.mesh import TriangleMesh
+from thesis_rbd.geometry.width import hull_thickness
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate, quat_to_matrix
 
 __all__ = ["STAGE_NAMES", "World"]
@@ -216,6 +217,7 @@ class World:
             R = quat_to_matrix(q)
             P = m * v
             L = R @ inertia @ R.T @ w
+        radius = float(np.linalg.norm(mesh.vertices - center, axis=1).max())
         index = self.bodies.append(
             mesh,
             name if name is not None else f"body{self.bodies.count}",
@@ -228,7 +230,9 @@ class World:
             mass=m,
             inertia_body=inertia,
             center_of_mass_local=center,
-            size=float(np.linalg.norm(mesh.vertices - center, axis=1).max()),
+            size=radius,
+            # a flat mesh has no thickness; a thousandth of its radius keeps sampling finite
+            thickness=max(hull_thickness(mesh.vertices), 1e-3 * radius),
             restitution=restitution,
             friction=friction,
             static=bool(static),
@@ -383,7 +387,7 @@ class World:
         )
 
     def _stage_bounds(self) -> None:
-        """Fast bodies (moved further than their own size) and fat boxes, refitted if a
+        """Fast bodies (moved further than their own thickness) and fat boxes, refitted if a
         moving body left its own."""
         self._collision.bounds(self.bodies, self._frozen, self._start_position, self.dt)
 

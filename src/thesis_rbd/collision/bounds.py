@@ -8,9 +8,9 @@ velocity predicts over ``PREDICTION_STEPS`` steps (at most r). A fat box stays p
 sphere's box stays inside it, which a step checks with six comparisons per body and no
 rotation; once one leaves, every moving body's fat box is refitted at once, which keeps the
 refits in step, so a scene of bodies in steady motion needs a broad-phase update only every
-``PREDICTION_STEPS`` steps or so instead of every step. A body that moved further than r in one
-step (a *fast* body) must also keep the sphere's box where the step started inside its fat box,
-so that the broad phase sees everything it passed through.
+``PREDICTION_STEPS`` steps or so instead of every step. A body that moved further than its
+thickness in one step (a *fast* body) must also keep the sphere's box where the step started
+inside its fat box, so that the broad phase sees everything it passed through.
 
 Pairs of fat boxes are only candidates. The *tight* box of a body is exact for its mesh's local
 box: posed by the rotation R, the local box (centre offset o from the centre of mass,
@@ -56,8 +56,8 @@ def _posed_box(R, offset, half, x, radius, lower, upper):
 
 @njit
 def update_fat_bounds(
-    count, everything, frozen, radius, position, start_position, linear_momentum, inverse_mass,
-    horizon, fat, fast,
+    count, everything, frozen, radius, thickness, position, start_position, linear_momentum,
+    inverse_mass, horizon, fat, fast,
 ):  # fmt: skip
     """Find the fast bodies and check every moving body against its fat box; refit on a miss.
 
@@ -72,6 +72,8 @@ def update_fat_bounds(
         caller makes them their tight boxes: they do not move).
     radius : (>= n,) float64
         Bounding radius r of each body's mesh about its centre of mass.
+    thickness : (>= n,) float64
+        Smallest width of each body: one that moved further than this is fast.
     position, start_position : (>= n, 3) float64
         World centre of mass now and at the start of the step.
     linear_momentum : (>= n, 3) float64
@@ -82,7 +84,7 @@ def update_fat_bounds(
     fat : (2, n, 3) float64
         [lower, upper] fat boxes, world frame; rewritten on a refit.
     fast : (n,) bool
-        Output: moved further than its radius this step.
+        Output: moved further than its thickness this step.
 
     Returns
     -------
@@ -103,7 +105,7 @@ def update_fat_bounds(
             continue
         x, x0, r = position[i], start_position[i], radius[i]
         travel2 = (x[0] - x0[0]) ** 2 + (x[1] - x0[1]) ** 2 + (x[2] - x0[2]) ** 2
-        is_fast = travel2 > r * r
+        is_fast = travel2 > thickness[i] * thickness[i]
         fast[i] = is_fast
         fast_count += is_fast
         P, im = linear_momentum[i], inverse_mass[i]

@@ -146,9 +146,9 @@ class CollisionPipeline:
         b = bodies
         self._start_position = start_position
         refit, self.fast_count, self.slowest_speed2 = update_fat_bounds(
-            b.count, self._refit_all, frozen, b.full("size"), b.full("position"), start_position,
-            b.full("linear_momentum"), b.full("inverse_mass"), PREDICTION_STEPS * dt, self.fat,
-            self.fast,
+            b.count, self._refit_all, frozen, b.full("size"), b.full("thickness"),
+            b.full("position"), start_position, b.full("linear_momentum"), b.full("inverse_mass"),
+            PREDICTION_STEPS * dt, self.fat, self.fast,
         )  # fmt: skip
         if self._refit_all:
             # static and sleeping bodies do not move: their fat boxes are their tight boxes
@@ -165,7 +165,7 @@ class CollisionPipeline:
         """Catch fast bodies that passed through something during the step.
 
         For each candidate pair with a fast body, the fast body's motion is sampled at
-        spacings of at most half its size (positions interpolated, orientations
+        spacings of at most half its thickness (positions interpolated, orientations
         normalised-lerped); at the first sample where the pair intersects, the body is put
         back there and the pair's contacts join the contact set, for the contact stage to
         resolve (it then steps back to the exact time of impact). Pairs already touching at
@@ -189,7 +189,7 @@ class CollisionPipeline:
             end_orientation = orientation[mover].copy()
             q0 = start_orientation[mover] * np.sign(start_orientation[mover] @ end_orientation)
             travel = np.linalg.norm(end_position - start_position[mover])
-            samples = int(np.ceil(travel / (0.5 * bodies.size[mover])))
+            samples = int(np.ceil(travel / (0.5 * bodies.thickness[mover])))
             for s in np.arange(1, samples) / samples:
                 position[mover] = (1 - s) * start_position[mover] + s * end_position
                 q = (1 - s) * q0 + s * end_orientation

@@ -51,6 +51,10 @@ class BodyArrays:
         c, the centre of mass in the mesh frame.
     size : (n,) float64
         Bounding-sphere radius of the mesh about its centre of mass.
+    thickness : (n,) float64
+        Smallest width of the mesh's convex hull over its face normals: a body that moves
+        further than this in one step may have passed through something (a 1 cm plate's
+        bounding radius is 0.42 m, its thickness 0.01 m).
     restitution, friction : (n,) float64
         Material coefficients, combined per contact by the rules of DESIGN.md.
     static : (n,) bool
@@ -70,6 +74,7 @@ class BodyArrays:
         "inertia_body": ((3, 3), np.float64),
         "center_of_mass_local": ((3,), np.float64),
         "size": ((), np.float64),
+        "thickness": ((), np.float64),
         "restitution": ((), np.float64),
         "friction": ((), np.float64),
         "static": ((), np.bool_),
