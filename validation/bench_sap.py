@@ -22,23 +22,24 @@ like n: 816 / 2.2k / 23k per frame at 1k / 10k / 100k.
 Measured on a 2-core machine shared with three other engineers' jobs (load 3-6), as CPU time
 of the thread (wall time there counts the other jobs' turns on the core) and minima over
 frames. Interleaved A/B, coherent 100k per frame: before (3e64bf3, one list per axis)
-33.8-34.6 ms; multi-SAP (74a73d6) 16.2-18.1 ms; with the per-axis endpoint table that the
-records are refreshed from (a6c817b) 11.5-12.7 ms. The ``__main__`` run of this module at
-a6c817b, ms per frame ours / fcl / numpy (interleaved frame by frame, so each of ours starts
-with caches the peers have evicted): coherent 1k 0.11 / 1.04 / 0.90, 10k 1.11 / 22.6 / 71
-(20x fcl), 100k 16.5 / 155 / 2760; incoherent 1k 1.08 / 4.41 / 1.02, 10k 21.4 / 366 / 41.6,
-100k 705 / - / 2840. Scaling figure, ms at 1k / 3k / 10k / 30k / 100k (ours alone): fixed
-speed 0.060 / 0.145 / 0.59 / 2.49 / 11.0, slope 1.15 (before: 1.33 quiet, 1.48 loaded);
-bounded crossings 0.055 / 0.13 / 0.39 / 1.91 / 9.5, slope 1.13 (before 1.09); incoherent
-1.1 / 5.6 / 23 / 110 / 845, slope 1.41. The coherent slope is 1.10 from 1k to 30k and 1.23
-from 30k to 100k: swaps grow like n now, what grows faster is memory (the records and bounds
-of 100k boxes, ~20 MB, no longer stay in cache). A full rebuild costs more than before for
-choosing the grid and filling the columns (incoherent 10k: 26 ms against 19 ms, A/B).
-Targets: coherent 100k <= 20 ms met (11-17 ms, 34 ms before); 10k at least 3x faster than
-fcl met (20x); slope ~1 met in the swap count and to 30k in time, 1.15 over 1k-100k. Issue
-6's case, ``update(check=False)`` of 1000 far-apart boxes moving 1 um per frame with no
-events (a row of unit boxes 10 m apart): 24 us per call, 56-62 us before (A/B); the kernel
-is ~20 us of it (staging 5, each axis ~4), so the 15 us goal is not met.
+33.8-34.6 ms; multi-SAP (74a73d6) 16.2-18.1 ms; records refreshed from a per-axis endpoint
+table (a6c817b) 11.5-12.7 ms; refresh loops that vectorise (f422f7b) 9.9-11.0 ms. The
+``__main__`` run of this module at f422f7b, ms per frame ours / fcl / numpy (interleaved frame
+by frame, so each of ours starts with caches the peers have evicted): coherent 1k
+0.090 / 0.94 / 0.90, 10k 0.82 / 12.2 / 54 (15x fcl), 100k 9.2 / 151 / 2130; incoherent 1k
+1.03 / 4.54 / 0.98, 10k 22.0 / 351 / 43.8, 100k 675 / - / 2490. Scaling figure, ms at 1k /
+3k / 10k / 30k / 100k (ours alone): fixed speed 0.058 / 0.15 / 0.59 / 2.2 / 10.1, slope 1.13
+(before: 1.33 quiet, 1.48 loaded); bounded crossings 0.054 / 0.13 / 0.38 / 1.53 / 6.45,
+slope 1.05 (before 1.09); incoherent 0.89 / 4.5 / 22 / 110 / 673, slope 1.43. The fixed-speed
+slope is 1.07 from 1k to 30k and 1.27 from 30k to 100k: swaps grow like n now, what grows
+faster is memory (the records and bounds of 100k boxes, ~20 MB, no longer stay in cache). A
+full rebuild costs more than before for choosing the grid and filling the columns
+(incoherent 10k: 26 ms against 19 ms, A/B). Targets: coherent 100k <= 20 ms met (9-11 ms,
+34 ms before); 10k at least 3x faster than fcl met (15x); slope ~1 met in the swap count, to
+30k in time, and 1.13 over 1k-100k. Issue 6's case, ``update(check=False)`` of 1000
+far-apart boxes moving 1 um per frame with no events (a row of unit boxes 10 m apart): 22 us
+per call, 56-62 us before (A/B); the kernel is ~18 us of it (staging 5, each axis ~4), so
+the 15 us goal is not met.
 
 ``python -m validation.bench_sap FIGURE.png`` times ``SweepAndPrune.update`` against n and
 writes the log-log scaling figure with the fitted slopes.
