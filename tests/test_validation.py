@@ -139,7 +139,9 @@ def test_stability_suite_rows_hold_ours_pybullet_and_the_verdict(tiny_report):
     assert summary["mass_ratio"]["ours_exact"] == exact
 
 
-@pytest.mark.parametrize("name", ["sap_benchmarks", "obbtree_benchmarks", "contact_benchmarks"])
+@pytest.mark.parametrize(
+    "name", ["sap_benchmarks", "obbtree_benchmarks", "contact_benchmarks", "effects_benchmarks"]
+)
 def test_benchmark_suites_compare_with_their_peers(tiny_report, name):
     out, _ = tiny_report
     summary = study_data(out, name)["summary"]

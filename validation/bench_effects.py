@@ -3,7 +3,8 @@ the integration stage alone.
 
 Run with ``pytest validation/bench_effects.py --benchmark-enable``. Scene: 1000 boxes 1 x 2 x 3
 m on a 100 m lattice, no gravity, random orientations, speeds up to 2 m/s and spins of about
-3 rad/s, so that nothing touches for the benchmark's 2000 steps. The full step runs the
+3 rad/s, so that nothing touches for the benchmark's at most 2000 steps (``--benchmark-max-time``
+worth of them at ~0.2 ms each, at least 100). The full step runs the
 collision and sleep stages a collidable scene plans (bounds every step; broad phase only when
 a body leaves its fat box; never a narrow phase, contact or sleep call); the peer, "integration
 alone", is the same bodies added with ``collidable=False``, whose only stage is integration.
@@ -61,11 +62,17 @@ def far_apart_world(count: int = COUNT, collidable: bool = True) -> rbd.World:
     return world
 
 
-def _bench_interleaved(benchmark, world, other) -> np.ndarray:
-    """Time ``STEPS`` single steps of ``world`` (a fixed number, so that the scene never runs
-    into its own collisions), each after an untimed step of ``other``: both worlds of the
-    group run in the same alternation, and the load of the shared machine falls on both
-    alike. Returns the seconds of ``other``'s steps that came before the timed ones."""
+def _rounds(request) -> int:
+    """Timed steps: ``--benchmark-max-time`` worth at ~0.2 ms a step, between 100 and
+    ``STEPS`` (a fixed ceiling, so that the scene never runs into its own collisions)."""
+    max_time = float(request.config.getoption("benchmark_max_time", 1.0) or 1.0)
+    return int(min(max(max_time / 2e-4, 100), STEPS))
+
+
+def _bench_interleaved(benchmark, world, other, rounds) -> np.ndarray:
+    """Time ``rounds`` single steps of ``world``, each after an untimed step of ``other``:
+    both worlds of the group run in the same alternation, and the load of the shared machine
+    falls on both alike. Returns the seconds of ``other``'s steps before the timed ones."""
     other_seconds = []
 
     def step_other():
@@ -73,15 +80,17 @@ def _bench_interleaved(benchmark, world, other) -> np.ndarray:
         other.step()
         other_seconds.append(perf_counter() - start)
 
-    benchmark.pedantic(world.step, setup=step_other, rounds=STEPS, warmup_rounds=20)
-    return np.array(other_seconds[-STEPS:])
+    benchmark.pedantic(world.step, setup=step_other, rounds=rounds, warmup_rounds=20)
+    return np.array(other_seconds[-rounds:])
 
 
-def test_full_step_far_apart(benchmark):
+def test_full_step_far_apart(benchmark, request):
     benchmark.group = f"far-apart bodies, no gravity, N = {COUNT}"
     benchmark.extra_info.update(bodies=COUNT, peer=False)
     world = far_apart_world()
-    alone = _bench_interleaved(benchmark, world, far_apart_world(collidable=False))
+    alone = _bench_interleaved(
+        benchmark, world, far_apart_world(collidable=False), _rounds(request)
+    )
     calls = {name: entry["calls"] for name, entry in world.profile.items()}
     assert calls["narrow_phase"] == calls["contacts"] == calls["sleep"] == 0
     benchmark.extra_info.update(broad_phase_calls=calls["broad_phase"], steps=calls["integrate"])
@@ -91,12 +100,12 @@ def test_full_step_far_apart(benchmark):
         benchmark.extra_info.update(interleaved_ratio_to_integration_alone=ours / np.median(alone))
 
 
-def test_integration_alone_far_apart(benchmark):
+def test_integration_alone_far_apart(benchmark, request):
     benchmark.group = f"far-apart bodies, no gravity, N = {COUNT}"
     benchmark.extra_info.update(bodies=COUNT, peer="integration alone")
     world = far_apart_world(collidable=False)
     assert world.stages == ["integrate"]
-    _bench_interleaved(benchmark, world, far_apart_world())
+    _bench_interleaved(benchmark, world, far_apart_world(), _rounds(request))
 
 
 def interleaved_profile(repeats: int = 20, steps: int = 100) -> dict:
