@@ -73,7 +73,8 @@ def describe_environment(repo: Path | None = None) -> dict:
     dict
         ``machine`` (cpu, logical_cores, usable_cores, memory_gib, system), ``python``,
         ``libraries`` (name -> version or None), ``git`` (commit, short, dirty: whether
-        tracked files differ from the commit; untracked files are not counted).
+        tracked files differ from the commit; untracked files are not counted, nor is
+        reports/, which the campaign itself rewrites).
     """
     repo = Path(repo) if repo is not None else Path(__file__).resolve().parents[1]
     versions = {}
@@ -83,7 +84,9 @@ def describe_environment(repo: Path | None = None) -> dict:
         except metadata.PackageNotFoundError:
             versions[name] = None
     commit = _git(["rev-parse", "HEAD"], repo)
-    status = _git(["status", "--porcelain", "--untracked-files=no"], repo)
+    status = _git(
+        ["status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)reports"], repo
+    )
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
     return {
         "machine": {
