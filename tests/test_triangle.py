@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from reference import examples, tri_box_lp, tri_tri_lp, tri_tri_sat
 
@@ -204,3 +204,46 @@ def test_tri_box_equals_box_as_triangles(V, h):
     inside = np.all(np.abs(V) <= h)
     meets = inside or any(tri_tri_sat(V, corners[list(f)], exact=True)[0] for f in faces)
     assert triangle_box_overlap(V, h) == meets
+
+
+# A triangle whose corners are collinear up to round-off (twice its area is 4e-17, its edges
+# 0.35 m): its computed normal points anywhere, and the plane-side rejection on it once
+# reported this segment-through-triangle pair as apart (python-fcl and the LP say it meets).
+ROUND_OFF_FLAT = np.array(
+    [
+        [0.6695392912257001, -0.14115520850740723, -0.2718040447380686],
+        [0.5278692432268419, -0.2444643970446581, -0.3003254744231647],
+        [0.3861991952279836, -0.34777358558190913, -0.3288469041082608],
+    ]
+)
+CROSSED = np.array(
+    [
+        [0.6933997706584684, -0.16860817243401716, -0.4282870533660401],
+        [0.398312294000003, -0.32906839919836306, -0.21745411887569055],
+        [0.38965264119031223, -0.27899873466283776, -0.5644515190099776],
+    ]
+)
+
+
+def test_round_off_flat_triangle_is_decided_as_a_segment():
+    assert tri_tri_lp(ROUND_OFF_FLAT, CROSSED)
+    assert triangles_overlap(ROUND_OFF_FLAT, CROSSED)
+    assert triangles_overlap(CROSSED, ROUND_OFF_FLAT)
+
+
+def test_round_off_flat_triangle_meets_a_box_around_its_middle():
+    middle = ROUND_OFF_FLAT[1]
+    assert triangle_box_overlap(ROUND_OFF_FLAT - middle, np.array([1e-3, 1e-3, 1e-3]))
+
+
+@given(st.integers(0, 2**32 - 1), st.floats(-1.0, 2.0))
+def test_nearly_collinear_triangles_against_the_sat_reference(seed, t):
+    """Corners on a line plus round-off-sized noise, against random triangles; cases within
+    1e-9 of touching are left to the exact-arithmetic tests above."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(2, 3))
+    flat = np.array([a, b, a + t * (b - a)]) + rng.normal(scale=1e-16, size=(3, 3))
+    Q = rng.normal(size=(3, 3)) * 0.7
+    overlap, margin = tri_tri_sat(flat, Q)
+    assume(abs(margin) > 1e-9)
+    assert triangles_overlap(flat, Q) == overlap

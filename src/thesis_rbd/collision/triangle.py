@@ -12,14 +12,17 @@ interval end points): the two plane-side rejections first, which settle most pai
 bounding-volume traversal hands over; then, for triangles straddling each other's plane, a
 canonical relabelling and two more orientation signs that tell whether the two segments on
 the planes' common line overlap. Touching cases (a zero sign) fall through the same case
-analysis. Coplanar pairs and exactly degenerate triangles (a segment or a point, zero
-normal) go to a separating-axis test instead: both normals, the 9 edge-edge cross products,
-the 12 in-plane edge normals, and for degenerate triangles the edges themselves and the
-corner-to-corner directions (and their components perpendicular to each edge), which decides
-point/point, point/segment and segment/segment pairs as well.
+analysis. Coplanar pairs and flat triangles (a segment or a point: a normal at most 1e-12 of
+the longest edge squared, so round-off when the corners are collinear) go to a
+separating-axis test instead, which leaves out a flat triangle's normal: its direction is
+round-off, and a projection on it can show a gap that is not there. The test uses both
+normals, the 9 edge-edge cross products, the 12 in-plane edge normals, and for flat triangles
+the edges themselves and the corner-to-corner directions (and their components perpendicular
+to each edge), which decides point/point, point/segment and segment/segment pairs as well.
 
 Triangle-box (:func:`tri_box_overlap`) is Akenine-Möller's (2001) 13-axis test: the box's face
-normals, the triangle normal, and the 9 cross products of box axes with triangle edges.
+normals, the triangle normal (not for a flat triangle), and the 9 cross products of box axes
+with triangle edges.
 
 Corners are passed as ``(x, y, z)`` tuples so the kernels allocate nothing.
 """
@@ -48,6 +51,14 @@ def _separated(axis, p0, p1, p2, q0, q1, q2):
     return pmax < qmin or qmax < pmin
 
 
+@njit(inline="always")
+def _flat(n, e0, e1, e2):
+    """Whether a triangle with edges e0, e1, e2 and normal n = e0 x e1 has no plane: |n| is
+    at most 1e-12 times its longest edge squared (corners collinear up to round-off)."""
+    longest = max(dot(e0, e0), dot(e1, e1), dot(e2, e2))
+    return dot(n, n) <= 1e-24 * longest * longest
+
+
 @njit
 def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     """Closed triangle-triangle overlap test.
@@ -64,6 +75,11 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     """
     # Orientation of each corner against the other triangle's plane (Guigue-Devillers
     # convention: the plane's normal is taken at its third corner).
+    # A flat triangle has no plane to reject against: separating axes decide.
+    flat_p = _flat(cross(sub(p1, p0), sub(p2, p1)), sub(p1, p0), sub(p2, p1), sub(p0, p2))
+    flat_q = _flat(cross(sub(q1, q0), sub(q2, q1)), sub(q1, q0), sub(q2, q1), sub(q0, q2))
+    if flat_p or flat_q:
+        return _sat_overlap(p0, p1, p2, q0, q1, q2, flat_p, flat_q)
     n2 = cross(sub(q0, q2), sub(q1, q2))
     s0 = dot(sub(p0, q2), n2)
     s1 = dot(sub(p1, q2), n2)
@@ -77,8 +93,7 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     if (t0 > 0.0 and t1 > 0.0 and t2 > 0.0) or (t0 < 0.0 and t1 < 0.0 and t2 < 0.0):
         return False
     if (s0 == 0.0 and s1 == 0.0 and s2 == 0.0) or (t0 == 0.0 and t1 == 0.0 and t2 == 0.0):
-        # Coplanar, or a degenerate triangle (zero normal): separating axes decide.
-        return _sat_overlap(p0, p1, p2, q0, q1, q2)
+        return _sat_overlap(p0, p1, p2, q0, q1, q2, False, False)  # coplanar
     # Guigue-Devillers: rotate P so that its first corner is alone on its side of Q's plane
     # (flipping Q's orientation if that side is the negative one), then the same for Q.
     if s0 > 0.0:
@@ -149,16 +164,17 @@ def _gd_intervals(p0, p1, p2, q0, q1, q2):
 
 
 @njit
-def _sat_overlap(p0, p1, p2, q0, q1, q2):
-    """Separating-axis decision for coplanar pairs and exactly degenerate triangles."""
+def _sat_overlap(p0, p1, p2, q0, q1, q2, flat_p, flat_q):
+    """Separating-axis decision for coplanar pairs and flat triangles (``flat_p``,
+    ``flat_q``: that triangle's normal is round-off and is not used as an axis)."""
     e0 = sub(p1, p0)
     e1 = sub(p2, p1)
     e2 = sub(p0, p2)
     f0 = sub(q1, q0)
     f1 = sub(q2, q1)
     f2 = sub(q0, q2)
-    n1 = cross(e0, e1)
-    n2 = cross(f0, f1)
+    n1 = (0.0, 0.0, 0.0) if flat_p else cross(e0, e1)
+    n2 = (0.0, 0.0, 0.0) if flat_q else cross(f0, f1)
     if _separated(n1, p0, p1, p2, q0, q1, q2) or _separated(n2, p0, p1, p2, q0, q1, q2):
         return False
     # Edge-edge axes: complete, together with the normals, for non-coplanar triangles.
@@ -181,7 +197,7 @@ def _sat_overlap(p0, p1, p2, q0, q1, q2):
     if _separated(cross(e2, f2), p0, p1, p2, q0, q1, q2):
         return False
     # In-plane edge normals: decide coplanar pairs. Each triangle's edges are crossed with
-    # both normals, so that a degenerate triangle (zero normal) still gets the in-plane
+    # both normals, so that a flat triangle (zero normal here) still gets the in-plane
     # normals of its edges from the other triangle's plane.
     for n in (n1, n2):
         if _separated(cross(n, e0), p0, p1, p2, q0, q1, q2):
@@ -196,14 +212,14 @@ def _sat_overlap(p0, p1, p2, q0, q1, q2):
             return False
         if _separated(cross(n, f2), p0, p1, p2, q0, q1, q2):
             return False
-    if dot(n1, n1) == 0.0 or dot(n2, n2) == 0.0:
+    if flat_p or flat_q:
         return not _degenerate_separated(p0, p1, p2, q0, q1, q2, e0, e1, e2, f0, f1, f2)
     return True
 
 
 @njit
 def _degenerate_separated(p0, p1, p2, q0, q1, q2, e0, e1, e2, f0, f1, f2):
-    """Extra axes for a triangle that is exactly a segment or a point (zero normal).
+    """Extra axes for a flat triangle: a segment or a point.
 
     The axes above lose their meaning when a normal vanishes: a point against a segment, or
     two parallel segments, has no face normal or edge cross product to separate on. The
@@ -260,12 +276,13 @@ def tri_box_overlap(v0, v1, v2, h):
     e0 = sub(v1, v0)
     e1 = sub(v2, v1)
     e2 = sub(v0, v2)
-    # Triangle plane against the box.
+    # Triangle plane against the box (a flat triangle has none: its edges' axes decide).
     n = cross(e0, e1)
-    d = dot(n, v0)
-    r = h[0] * abs(n[0]) + h[1] * abs(n[1]) + h[2] * abs(n[2])
-    if d > r or d < -r:
-        return False
+    if not _flat(n, e0, e1, e2):
+        d = dot(n, v0)
+        r = h[0] * abs(n[0]) + h[1] * abs(n[1]) + h[2] * abs(n[2])
+        if d > r or d < -r:
+            return False
     # Box axis x triangle edge. cross(unit_k, e) written out to save the multiplications.
     for e in (e0, e1, e2):
         if _box_separated((0.0, -e[2], e[1]), v0, v1, v2, h):
