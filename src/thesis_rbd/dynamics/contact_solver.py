@@ -32,7 +32,9 @@ Arrays, for c contacts and n bodies, travel as two tuples:
         velocity, angular_velocity (n, 3) world; inverse_mass (n,); inverse_inertia (n, 3, 3)
         world frame. Static bodies have zero inverses and are never moved.
 
-and per contact bias (c,), the restitution term e u_n- (<= 0), and friction (c,).
+and per contact bias (c,) and friction (c,). The normal condition is u_n+ + bias >= 0: a
+negative bias demands separation (restitution e u_n-, or a penetration to push out), a positive
+one allows that much approach (a resting contact sinking to its slop).
 """
 
 from __future__ import annotations
@@ -185,7 +187,7 @@ def solve_pgs(iterations, sides, contacts, bias, friction, bodies, impulse, tole
     contacts : tuple
         (body_a, body_b, arm_a, arm_b, basis), see the module docstring.
     bias : (c,) float64
-        Restitution term e u_n- (<= 0) of each contact.
+        Normal bias of each contact: the solve makes u_n+ + bias >= 0.
     friction : (c,) float64
         Friction coefficient of each contact.
     bodies : tuple

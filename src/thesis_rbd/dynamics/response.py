@@ -12,7 +12,10 @@ Given the contacts found at the end of the integration step, in order:
    path (exact for constant external force, so a ball bounces to the right height);
 5. the velocity-level contact problem of each island, solved exactly (Lemke) or by projected
    Gauss-Seidel with warm starts from the previous step's impulses (``contact_solver``), as
-   Poisson's two phases: compression (the approach is stopped, friction included), then
+   Poisson's two phases: compression (the approach is stopped, friction included; a
+   contact that does not bounce may still close what is left of its ``slop`` within the
+   step, so that bodies placed exactly touching sink to a depth at which their contact is
+   found again next step, instead of flickering in and out at zero depth), then
    restitution (each contact gets e times its compression impulse), which unlike Newton's
    law at simultaneous contacts never adds energy to a frictionless impact;
 6. the stepped-back islands move forward again by the same time with their new velocities;
@@ -353,6 +356,8 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     bounces = u_before < -settings.bounce_threshold
     restitution = np.where(bounces, b.restitution[body_a] * b.restitution[body_b], 0.0)
 
+    # resting contacts shallower than the slop may approach by what is left of it
+    sink = np.where(bounces, 0.0, np.maximum(settings.slop - contacts["depths"], 0.0) / dt)
     impulse = cache.lookup(b, contacts, basis)
     lemke_fallbacks = _solve_islands(
         _SOLVERS.index(settings.solver),
@@ -360,7 +365,7 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
         settings.friction_sides,
         island_start,
         frame,
-        np.zeros(len(restitution)),
+        sink,
         friction,
         bodies,
         impulse,
