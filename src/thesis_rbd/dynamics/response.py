@@ -13,9 +13,9 @@ Given the contacts found at the end of the integration step, in order:
 5. the velocity-level contact problem of each island, solved exactly (Lemke) or by projected
    Gauss-Seidel with warm starts from the previous step's impulses (``contact_solver``), as
    Poisson's two phases: compression (the approach is stopped, friction included; a
-   contact that does not bounce may still close what is left of its ``slop`` within the
-   step, so that bodies placed exactly touching sink to a depth at which their contact is
-   found again next step, instead of flickering in and out at zero depth), then
+   contact that does not bounce may still close a fifth of what is left of its ``slop``
+   per step, so that bodies placed exactly touching sink to a depth at which their contact
+   is found again next step, instead of flickering in and out at zero depth), then
    restitution (each contact gets e times its compression impulse), which unlike Newton's
    law at simultaneous contacts never adds energy to a frictionless impact;
 6. the stepped-back islands move forward again by the same time with their new velocities;
@@ -48,6 +48,11 @@ __all__ = ["ContactSettings", "ImpulseCache", "resolve_contacts"]
 
 _SOLVERS = ("pgs", "exact")
 _PENETRATION = ("toi", "projection")
+# Fraction of the missing slop a resting contact may close per step. All of it (1.0) made a
+# ten-cube stack rock by round-off: the same stack at (1e5, 1e5) m parted from the one at the
+# origin by 0.8 mm; 0.2 keeps them within 1e-9 m and still seats exactly-touching cubes
+# within a few steps (mass-ratio stack: penetration 0.19 mm instead of 2.6 mm).
+_SINK_RATE = 0.2
 
 
 @dataclass(frozen=True)
@@ -357,7 +362,9 @@ def resolve_contacts(world_bodies, contacts, external_force, dt, settings, cache
     restitution = np.where(bounces, b.restitution[body_a] * b.restitution[body_b], 0.0)
 
     # resting contacts shallower than the slop may approach by what is left of it
-    sink = np.where(bounces, 0.0, np.maximum(settings.slop - contacts["depths"], 0.0) / dt)
+    sink = np.where(
+        bounces, 0.0, _SINK_RATE * np.maximum(settings.slop - contacts["depths"], 0.0) / dt
+    )
     impulse = cache.lookup(b, contacts, basis)
     lemke_fallbacks = _solve_islands(
         _SOLVERS.index(settings.solver),
