@@ -426,21 +426,22 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
     # Redundant contacts can also stop the path on a ray while the artificial variable is
     # already zero, and then the basis in hand is a solution: the LCP conditions are the
     # judge either way.
-    best_z, best_residual, best_status = np.zeros(q.shape[0]), np.inf, 3
+    best, best_residual, best_status = np.zeros(3 * c), np.inf, 3
     for pivot_tolerance in _PIVOT_TOLERANCES:
         z, status, _ = lemke(M, q, 0, pivot_tolerance)
+        contact_impulse = G @ z
         residual = _lcp_residual(M, q, z)
-        if not _dissipates(A, u, bias, G @ z):
+        if not _dissipates(A, u, bias, contact_impulse):
             residual = max(residual, 1.0)  # an answer that adds energy is no answer
         if residual < best_residual:
-            best_z, best_residual, best_status = z, residual, status
+            best, best_residual, best_status = contact_impulse, residual, status
         if residual <= 1e-6:
             break
     if best_residual <= 1e-6:
-        _set_impulses(G @ best_z, contacts, bodies, impulse)
+        _set_impulses(best, contacts, bodies, impulse)
         return 0
     if best_residual <= 1e-2:
-        _to_contact_impulses(G @ best_z, impulse)
+        _to_contact_impulses(best, impulse)
     solve_pgs(pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse)
     return 3 if best_status == 0 else best_status  # 3: the path ended, its answer was off
 
