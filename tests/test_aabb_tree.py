@@ -1,7 +1,5 @@
 """The AABB tree of the OBB-vs-AABB study: a valid tree, and an oracle for the OBB tree's pairs."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -13,8 +11,7 @@ from validation.aabb_tree import (
     record_aabb_traversal,
     record_obb_traversal,
 )
-
-DEMO = Path("/work/shared/data/tori_wobble.npz")
+from validation.tori import tori_mesh, tori_poses
 
 
 def test_every_node_box_holds_its_triangles():
@@ -69,11 +66,9 @@ def test_recorded_traversals_count_what_the_queries_count():
         record_obb_traversal(rbd.OBBTree(mesh), np.eye(4), obb, T_b)
 
 
-@pytest.mark.skipif(not DEMO.exists(), reason=f"demo data missing: {DEMO}")
 def test_tori_demo_pairs_equal_the_obb_tree():
-    data = np.load(DEMO)
-    mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
+    mesh = tori_mesh()
     aabb, obb = AABBTree(mesh), rbd.OBBTree(mesh)
-    for P in data["poses_b"][::25]:
+    for P in tori_poses()[::25]:
         pairs, _ = aabb_collide(aabb, np.eye(4), aabb, P)
         np.testing.assert_array_equal(pairs, rbd.collide(obb, np.eye(4), obb, P, "all").pairs)

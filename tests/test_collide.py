@@ -10,6 +10,7 @@ from reference import MESH_KINDS, brute_force_pairs, examples, random_mesh, rand
 
 import thesis_rbd as rbd
 from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
+from validation.tori import tori_mesh, tori_poses
 
 VARIANTS = [
     dict(leafless=True, dtype=np.float64),
@@ -68,13 +69,13 @@ def test_all_modes_match_brute_force_and_fcl(kind_a, kind_b, seed, variant_a, va
 
 
 def test_tori_demo_poses_match_fcl():
-    data = np.load(_data_path())
-    mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
+    mesh = tori_mesh()
+    poses = tori_poses()[::7]
     model = fcl_model(mesh)
     obj_a = fcl_object(model)
     trees = [rbd.OBBTree(mesh, **v) for v in VARIANTS[:3]]
     hits = 0
-    for T_b in data["poses_b"][::7]:
+    for T_b in poses:
         hit_fcl, pairs_fcl = fcl_collide(obj_a, fcl_object(model, T_b))
         hits += hit_fcl
         for tree in trees:
@@ -82,16 +83,7 @@ def test_tori_demo_poses_match_fcl():
             assert res.colliding == hit_fcl
             np.testing.assert_array_equal(res.pairs, _sorted(pairs_fcl))
             assert rbd.collide(tree, np.eye(4), tree, T_b, mode="first").colliding == hit_fcl
-    assert 0 < hits < len(data["poses_b"][::7])
-
-
-def _data_path():
-    from pathlib import Path
-
-    path = Path("/work/shared/data/tori_wobble.npz")
-    if not path.exists():
-        pytest.skip("shared benchmark data not present")
-    return path
+    assert 0 < hits < len(poses)
 
 
 def test_pairs_sorted_and_unique_and_world_frame_invariant():

@@ -75,16 +75,15 @@ def test_shapes_are_closed_and_outward(mesh, faces):
     np.testing.assert_allclose(mesh.bounds.sum(axis=0), 0, atol=1e-12)
 
 
-def test_shapes_match_the_shared_thesis_torus():
-    from pathlib import Path
-
-    data_path = Path(__file__).resolve().parents[2] / "shared" / "data" / "tori_wobble.npz"
-    if not data_path.exists():
-        pytest.skip("shared/data not beside the checkout")
-    data = np.load(data_path)
-    torus = rbd.shapes.torus()
-    np.testing.assert_allclose(torus.vertices, data["torus_vertices"], atol=1e-12)
-    np.testing.assert_array_equal(torus.faces, data["torus_faces"])
+def test_thesis_torus_lies_on_the_analytic_surface():
+    R, r = 1.0, 0.3
+    torus = rbd.shapes.torus(R, r, 50, 50)
+    x, y, z = torus.vertices.T
+    np.testing.assert_allclose((np.hypot(x, y) - R) ** 2 + z**2, r**2, atol=1e-12)
+    assert (len(torus.vertices), len(torus.faces)) == (2500, 5000)
+    # closed genus-1 surface: V - E + F = 0
+    assert torus.is_closed
+    assert len(torus.vertices) - 3 * len(torus.faces) // 2 + len(torus.faces) == 0
 
 
 @pytest.mark.parametrize(

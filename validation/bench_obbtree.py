@@ -1,6 +1,6 @@
 """OBBTree narrow-phase benchmarks (issue 3): the thesis demo of 5.4.1 against python-fcl.
 
-Scene (``/work/shared/data/tori_wobble.npz``): two tori of 5000 triangles (R = 1, r = 0.3,
+Scene (``validation/tori.py``): two tori of 5000 triangles (R = 1, r = 0.3,
 50 x 50 sections); A fixed at the identity, B standing in the xz-plane, wobbling while it
 slides along x from -3 to +3 through A in 200 poses. One *sweep* is one query per pose.
 
@@ -24,15 +24,13 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import thesis_rbd as rbd
 from thesis_rbd.collision._fcl import fcl_model, fcl_object, fcl_transform, require_fcl
-
-DATA = Path("/work/shared/data/tori_wobble.npz")
+from validation.tori import tori_mesh, tori_poses
 
 VARIANTS = {
     "leafless/triangles/f64": dict(leafless=True, fit="triangles", dtype=np.float64),
@@ -49,9 +47,8 @@ class Demo:
     """The tori scene, its trees (built on demand) and python-fcl's objects."""
 
     def __init__(self) -> None:
-        data = np.load(DATA)
-        self.mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
-        self.poses = [np.ascontiguousarray(P) for P in data["poses_b"]]
+        self.mesh = tori_mesh()
+        self.poses = list(tori_poses())
         self.identity = np.eye(4)
         self._trees: dict[str, rbd.OBBTree] = {}
         fcl = require_fcl()
@@ -110,8 +107,6 @@ class Demo:
 
 @pytest.fixture(scope="module")
 def demo():
-    if not DATA.exists():
-        pytest.skip(f"benchmark data missing: {DATA}")
     d = Demo()
     for variant in VARIANTS:  # compile and build outside the timings
         for mode in ("first", "all", "contacts"):

@@ -1,7 +1,7 @@
 """Study: the three collision report modes on the tori demo, against python-fcl in the same run.
 
 Thesis 5.4.1 times its four report options on two 5000-triangle tori moving through each
-other. Here every pose of the same scene (``/work/shared/data/tori_wobble.npz``) is queried
+other. Here every pose of the same scene (``validation/tori.py``) is queried
 by :func:`thesis_rbd.collide` in "first" (yes/no and one intersecting pair), "all" (every
 intersecting triangle pair) and "contacts" (the pairs plus contact points, normals and
 depths) mode, and by python-fcl (OBBRSS ``BVHModel``) with ``num_max_contacts`` 1, 100000,

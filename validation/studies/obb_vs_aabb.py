@@ -14,7 +14,6 @@ recorded box tests alone and triangle tests alone; the measured query time is co
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -26,7 +25,6 @@ from validation.section import Figure, Section, Table
 NAME = "obb_vs_aabb"
 TITLE = "Narrow phase: OBB trees against AABB trees (the cost function of thesis 4.2)"
 
-DATA = Path("/work/shared/data/tori_wobble.npz")
 POSE_STRIDE = {"full": 1, "quick": 4, "tiny": 20}
 REPEATS = {"full": 5, "quick": 3, "tiny": 2}
 TREES = {
@@ -74,10 +72,10 @@ def run(params: dict) -> dict:
         time_obb_tests,
         time_triangle_tests,
     )
+    from validation.tori import tori_mesh, tori_poses
 
-    data = np.load(DATA)
-    mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
-    poses = [np.ascontiguousarray(P) for P in data["poses_b"][:: params["pose_stride"]]]
+    mesh = tori_mesh()
+    poses = list(tori_poses()[:: params["pose_stride"]])
     repeats = params["repeats"]
     identity = np.eye(4)
     build_seconds = {}

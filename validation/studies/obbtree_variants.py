@@ -12,7 +12,6 @@ triangle, box tests, triangle-box tests and triangle tests per query, query time
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -24,7 +23,6 @@ from validation.section import Figure, Section, Table
 NAME = "obbtree_variants"
 TITLE = "Narrow phase: OBBTree variants (hull or triangle fit, leaf or leafless, float32)"
 
-DATA = Path("/work/shared/data/tori_wobble.npz")
 VARIANTS = (
     "leafless/triangles/f64",
     "leaf/triangles/f64",
@@ -64,10 +62,10 @@ def _median_seconds(call, repeats):
 def run(params: dict) -> dict:
     """Build and query statistics of one variant (or of python-fcl's OBBRSS model)."""
     import thesis_rbd as rbd
+    from validation.tori import tori_mesh, tori_poses
 
-    data = np.load(DATA)
-    mesh = rbd.TriangleMesh(data["torus_vertices"], data["torus_faces"])
-    poses = [np.ascontiguousarray(P) for P in data["poses_b"][:: params["pose_stride"]]]
+    mesh = tori_mesh()
+    poses = list(tori_poses()[:: params["pose_stride"]])
     repeats = params["repeats"]
     if params["variant"] == "fcl":
         return _run_fcl(mesh, poses, repeats)
