@@ -261,9 +261,6 @@ def test_sleeping_wakes_on_touch_and_on_force():
 @pytest.mark.parametrize(
     "option",
     [
-        {"slop": 0.0},
-        {"slop": float("nan")},
-        {"bounce_threshold": -1.0},
         {"contact_solver": "dantzig"},
         {"penetration": "ignore"},
         {"friction_sides": 2},

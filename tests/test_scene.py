@@ -121,21 +121,25 @@ def test_contact_settings_reach_the_world(tmp_path):
         contact_solver = "exact"
         contact_iterations = 12
         friction_sides = 4
-        bounce_threshold = 0.5
-        slop = 0.001
-        penetration = "toi"
+        penetration = "bias"
+        sleeping = false
         """,
     )
     world = rbd.load_scene(path).build()
     assert world.contact_response is False
     settings = world.contact_settings
     assert (settings.solver, settings.iterations, settings.friction_sides) == ("exact", 12, 4)
-    assert (settings.bounce_threshold, settings.slop, settings.penetration) == (0.5, 0.001, "toi")
+    assert settings.penetration == "bias"
+    assert "sleep" not in world.stages
     bad = write_scene(tmp_path, '[world]\ncontact_solver = "magic"\n', name="bad.toml")
     with pytest.raises(SceneError, match=r"bad\.toml: \[world\]: .*magic"):
         rbd.load_scene(bad)
     with pytest.raises(SceneError, match=r"overrides: .*magic"):
         rbd.load_scene(path).with_world(contact_solver="magic")
+    # absolute tolerances are gone: the message says why
+    old = write_scene(tmp_path, "[world]\nslop = 0.001\n", name="old.toml")
+    with pytest.raises(SceneError, match=r"slop.*relative"):
+        rbd.load_scene(old)
 
 
 def test_defaults_are_the_world_defaults(tmp_path):

@@ -89,12 +89,14 @@ def test_static_bodies_never_move_nor_count_in_energy():
     ball = world.add_body(rbd.shapes.icosphere(0.5, 2), mass=1.0, position=(0, 0, 2))
     assert world.stages == [
         "forces",
+        "contacts",
         "integrate",
         "bounds",
         "broad_phase",
         "narrow_phase",
         "tunnelling",
-        "contacts",
+        "time_of_impact",
+        "impacts",
         "sleep",
     ]
     world.step(24)
@@ -217,18 +219,22 @@ def test_a_scene_pays_only_for_the_stages_it_uses():
     integration alone, is measured by validation/bench_effects.py.)"""
     world = far_apart_world()
     assert world.stages == [
+        "contacts",
         "integrate",
         "bounds",
         "broad_phase",
         "narrow_phase",
         "tunnelling",
-        "contacts",
+        "time_of_impact",
+        "impacts",
         "sleep",
     ]
     world.step(480)
     calls = {name: entry["calls"] for name, entry in world.profile.items()}
     assert calls["integrate"] == calls["bounds"] == 481
-    for skipped in ("forces", "narrow_phase", "tunnelling", "contacts", "sleep"):
+    skipped_stages = ("forces", "contacts", "narrow_phase", "tunnelling", "time_of_impact",
+                      "impacts", "sleep")  # fmt: skip
+    for skipped in skipped_stages:
         assert calls[skipped] == 0, skipped
         assert world.profile[skipped]["seconds"] == 0.0
     assert 1 < calls["broad_phase"] <= 481 // 40

@@ -82,7 +82,9 @@ def build_scene(scene: str, rate: int, mode: str):
     """The world of ``scene``; returns (world, body, restitution, support top z, mesh)."""
     import thesis_rbd as rbd
 
-    world = rbd.World(dt=1.0 / rate, gravity=(0.0, 0.0, -G), penetration=mode)
+    world = rbd.World(
+        dt=1.0 / rate, gravity=(0.0, 0.0, -G), penetration="toi" if mode == "toi" else "bias"
+    )
     if scene == "fast_sphere":
         world.add_body(
             rbd.shapes.box((1.0, 1.0, 0.02)), static=True, position=(0, 0, -0.01), restitution=1.0

@@ -21,7 +21,25 @@ from typing import ClassVar
 
 import numpy as np
 
+from thesis_rbd._jit import njit
+
 __all__ = ["BodyArrays"]
+
+# The fields that make up the state (x, q, P, L): what a step changes.
+STATE_FIELDS = ("position", "orientation", "linear_momentum", "angular_momentum")
+
+
+@njit
+def _copy_state(count, x, q, P, L, x_to, q_to, P_to, L_to):
+    """Copy the first ``count`` rows of the state arrays into the ``*_to`` arrays."""
+    for i in range(count):
+        for a in range(3):
+            x_to[i, a] = x[i, a]
+            P_to[i, a] = P[i, a]
+            L_to[i, a] = L[i, a]
+        for a in range(4):
+            q_to[i, a] = q[i, a]
+
 
 _INITIAL_CAPACITY = 8
 
@@ -90,12 +108,26 @@ class BodyArrays:
         }
         self.meshes: list = []
         self.names: list[str] = []
+        self._saved = [np.empty((0, 3))]
 
     def __getattr__(self, name: str) -> np.ndarray:
         storage = self.__dict__.get("_storage")
         if storage is not None and name in storage:
             return storage[name][: self.count]
         raise AttributeError(name)
+
+    def save_state(self) -> None:
+        """Keep a copy of the state (x, q, P, L) that ``restore_state`` puts back."""
+        saved = self._saved
+        if saved[0].shape[0] != self.capacity:
+            saved = self._saved = [np.empty_like(self._storage[f]) for f in STATE_FIELDS]
+        st = self._storage
+        _copy_state(self.count, *(st[f] for f in STATE_FIELDS), *saved)
+
+    def restore_state(self) -> None:
+        """Put back the state of the last ``save_state``."""
+        st = self._storage
+        _copy_state(self.count, *self._saved, *(st[f] for f in STATE_FIELDS))
 
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""
