@@ -11,12 +11,13 @@ from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
-from thesis_rbd.world import World
+from thesis_rbd.world import NonFiniteStateError, World
 
 __all__ = [
     "CollisionResult",
     "Contacts",
     "MassProperties",
+    "NonFiniteStateError",
     "OBBTree",
     "Scene",
     "SceneError",
