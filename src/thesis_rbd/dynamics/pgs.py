@@ -54,6 +54,12 @@ def project_onto_polygon(x1, x2, radius, polygon):
     """Nearest point to (x1, x2) in the polygon ``polygon`` scaled to circumradius ``radius``."""
     if radius <= 0.0:
         return 0.0, 0.0
+    # inside the inscribed circle (a sticking contact, the common case): no angle needed
+    mid_x = 0.5 * (polygon[0, 0] + polygon[1, 0])
+    mid_y = 0.5 * (polygon[0, 1] + polygon[1, 1])
+    inner2 = radius * radius * (mid_x * mid_x + mid_y * mid_y)
+    if x1 * x1 + x2 * x2 <= inner2:
+        return x1, x2
     sides = polygon.shape[0] - 1
     sector = 2.0 * math.pi / sides
     angle = math.atan2(x2, x1)
