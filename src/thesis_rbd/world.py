@@ -514,7 +514,7 @@ class World:
         movers = ~(self._frozen | self._solved[:n])
         hits, v, w = find_hits(
             n, self._frozen, movers, c["body_a"], c["body_b"], c["points"], c["normals"],
-            b.full("position"), b.full("orientation"), b.full("linear_momentum"),
+            c["depths"], b.full("position"), b.full("orientation"), b.full("linear_momentum"),
             b.full("angular_momentum"), b.full("inverse_mass"), b.full("inverse_inertia_body"),
         )  # fmt: skip
         if not hits.any():

@@ -10,8 +10,9 @@ exact for a constant force and torque-free spin over the step, and bisection on 
 intersection query finds the last moment before the present at which the group's pairs did
 not touch, to dt / 2^``HALVINGS``. The bodies are left there with their velocities of that
 moment, and the contacts of their pairs are found anew; what remains of the step is the
-impact stage's (``dynamics/impacts.py``). A group already touching at the start of the step is
-left where it is.
+impact stage's (``dynamics/impacts.py``). A group that already touched at the start of the
+step (a contact found then by the yes/no query but not by the contact generator, as at an
+exact touch) goes back to where it started: its whole step is the impact stage's.
 """
 
 from __future__ import annotations
@@ -135,8 +136,8 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
 def _bisect(detector, bodies, members, pairs, v, w, acceleration, position, orientation, dt):
     """Leave ``members`` just inside first contact and return how far back that is (s).
 
-    Returns 0 (with the bodies back where they were) when the pairs already touched at the
-    start of the step.
+    Returns ``dt`` (with the bodies where they started the step) when the pairs already
+    touched then.
     """
     at = 0.0
 
@@ -147,8 +148,7 @@ def _bisect(detector, bodies, members, pairs, v, w, acceleration, position, orie
 
     move_to(dt)
     if detector.intersects(bodies, pairs):
-        move_to(0.0)
-        return 0.0
+        return dt
     inside, outside = 0.0, dt
     for _ in range(HALVINGS):
         middle = 0.5 * (inside + outside)

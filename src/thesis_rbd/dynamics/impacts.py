@@ -1,8 +1,8 @@
 """Impacts: bodies in free flight that ran into something during the step.
 
 After the narrow phase, a contact is a *hit* when one of its bodies flew freely through the
-step (the contact stage did not act on it) and the contact approaches: the body met the other
-during the step. ``find_hits`` names them; the collision side
+step (the contact stage did not act on it), it penetrates and it approaches: the body met the
+other during the step. ``find_hits`` names them; the collision side
 steps the bodies back to the time of impact (``collision/time_of_impact.py``); ``resolve_impacts``
 then resolves each island with a stepped-back body in two phases:
 
@@ -49,9 +49,11 @@ IMPACT_TOLERANCE = 1e-6
 
 
 @njit
-def find_hits(count, static, movers, body_a, body_b, points, normals, position, orientation,
-              linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body):  # fmt: skip
-    """Contacts a body in free flight ran into during the step.
+def find_hits(count, static, movers, body_a, body_b, points, normals, depths, position,
+              orientation, linear_momentum, angular_momentum, inverse_mass,
+              inverse_inertia_body):  # fmt: skip
+    """Contacts a body in free flight ran into during the step: it penetrates (depth > 0)
+    and approaches.
 
     Returns ``hits`` (c,) bool and the body velocities v, w (n, 3) at the end of the step.
     """
@@ -69,7 +71,7 @@ def find_hits(count, static, movers, body_a, body_b, points, normals, position, 
             arm_b[k, a] = points[k, a] - position[body_b[k], a]
     for k in range(c):
         a, b = body_a[k], body_b[k]
-        if not (movers[a] or movers[b]):
+        if not (movers[a] or movers[b]) or depths[k] <= 0.0:
             continue
         hits[k] = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w) < 0.0
     return hits, v, w
