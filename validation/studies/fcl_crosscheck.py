@@ -109,8 +109,8 @@ def generate_case(family: str, seed: int):
 def run(params: dict) -> dict:
     """Agreement counts of one chunk, and the ids of the disagreeing cases."""
     import thesis_rbd as rbd
-    from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
     from validation.aabb_tree import AABBTree, aabb_collide
+    from validation.fcl_adapter import fcl_collide, fcl_model, fcl_object
 
     family = params["family"]
     counts = {
