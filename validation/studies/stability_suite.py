@@ -29,10 +29,10 @@ Metrics, all over the whole run: drift, the largest displacement of a dynamic bo
 it started; deviation, the largest difference of a body's position from the same run at the
 origin (offset removed); penetration, the deepest contact reported by the engine after any
 step (thesis_rbd: ``World.contacts["depths"]``; pybullet: the most negative contact distance
-of ``getContactPoints``); final height, the top body's centre at the end; energy gain, the
-largest rise of kinetic plus potential energy over its value at the start (the energy above
-the floor); energy and |L| drift, relative changes of a free body's kinetic energy and
-angular momentum.
+of ``getContactPoints``); final height, the top body's centre at the end; final speed, the
+largest body speed at the end; energy gain, the largest rise of kinetic plus potential energy
+over its value at the start (the energy above the floor); energy and |L| drift, relative
+changes of a free body's kinetic energy and angular momentum.
 
 Where the bounds come from. Every bound is a :class:`Bound` that names its basis; none is
 derived from a setting of either engine (a slop, a sleep threshold, a solver tolerance):
