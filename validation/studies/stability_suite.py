@@ -126,14 +126,10 @@ class Bound:
         return self.limit
 
 
-def _size_bound(size: float, what: str) -> Bound:
-    """Drift of a body held at rest: 1 % of its size."""
-    return Bound(TOLERANCE * size, f"geometry: 1 % of {what}")
-
-
-def _thickness_bound(thickness: float, what: str) -> Bound:
-    """Penetration: 1 % of the thinner body's thickness."""
-    return Bound(TOLERANCE * thickness, f"geometry: 1 % of {what}")
+def _share_of(length: float, what: str) -> Bound:
+    """A geometry bound: ``TOLERANCE`` of ``length`` (m), the size of a body held at rest
+    (for drift) or the thickness of the thinner body (for penetration), named by ``what``."""
+    return Bound(TOLERANCE * length, f"geometry: {100 * TOLERANCE:g} % of {what}")
 
 
 def _rounding_bound(result: dict) -> float:
@@ -151,8 +147,8 @@ CASES = {
         "engines": ("ours",),
         "peers": CONTACT_PEERS,
         "metrics": (
-            ("max_drift", "largest cube drift (m)", _size_bound(1.0, CUBE_EDGE)),
-            ("max_penetration", "penetration (m)", _thickness_bound(1.0, CUBE_EDGE)),
+            ("max_drift", "largest cube drift (m)", _share_of(1.0, CUBE_EDGE)),
+            ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
     "mass_ratio_stack": {
@@ -161,8 +157,8 @@ CASES = {
         "engines": ("ours_exact", "ours_pgs"),
         "peers": CONTACT_PEERS,
         "metrics": (
-            ("max_drift", "largest cube drift (m)", _size_bound(1.0, CUBE_EDGE)),
-            ("max_penetration", "penetration (m)", _thickness_bound(1.0, CUBE_EDGE)),
+            ("max_drift", "largest cube drift (m)", _share_of(1.0, CUBE_EDGE)),
+            ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
     "pyramid": {
@@ -171,8 +167,8 @@ CASES = {
         "engines": ("ours",),
         "peers": CONTACT_PEERS,
         "metrics": (
-            ("max_drift", "largest cube drift (m)", _size_bound(1.0, CUBE_EDGE)),
-            ("max_penetration", "penetration (m)", _thickness_bound(1.0, CUBE_EDGE)),
+            ("max_drift", "largest cube drift (m)", _share_of(1.0, CUBE_EDGE)),
+            ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
     "card_house": {
@@ -184,12 +180,12 @@ CASES = {
             (
                 "max_drift",
                 "largest plate drift (m)",
-                _size_bound(1.0, "the plates' 1 m height"),
+                _share_of(1.0, "the plates' 1 m height"),
             ),
             (
                 "max_penetration",
                 "penetration (m)",
-                _thickness_bound(0.02, "the plates' 2 cm thickness"),
+                _share_of(0.02, "the plates' 2 cm thickness"),
             ),
         ),
     },
@@ -211,7 +207,7 @@ CASES = {
             (
                 "max_penetration",
                 "penetration (m)",
-                _thickness_bound(0.01, "the plate's 1 cm thickness"),
+                _share_of(0.01, "the plate's 1 cm thickness"),
             ),
         ),
     },
@@ -233,7 +229,7 @@ CASES = {
             (
                 "max_penetration",
                 "penetration (m)",
-                _thickness_bound(0.5, "the balls' 0.5 m diameter"),
+                _share_of(0.5, "the balls' 0.5 m diameter"),
             ),
         ),
     },
@@ -252,7 +248,7 @@ CASES = {
                     "numerics: one rounding of the position per step, steps x ulp(|x|)",
                 ),
             ),
-            ("max_penetration", "penetration (m)", _thickness_bound(1.0, CUBE_EDGE)),
+            ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
     "tiny_scale": {
@@ -262,8 +258,8 @@ CASES = {
         "peers": CONTACT_PEERS,
         "length": 1e-3,
         "metrics": (
-            ("max_drift", "drift / edge", _size_bound(1.0, "the edge")),
-            ("max_penetration", "penetration / edge", _thickness_bound(1.0, "the edge")),
+            ("max_drift", "drift / edge", _share_of(1.0, "the edge")),
+            ("max_penetration", "penetration / edge", _share_of(1.0, "the edge")),
         ),
     },
     "huge_scale": {
@@ -273,8 +269,8 @@ CASES = {
         "peers": CONTACT_PEERS,
         "length": 1e3,
         "metrics": (
-            ("max_drift", "drift / edge", _size_bound(1.0, "the edge")),
-            ("max_penetration", "penetration / edge", _thickness_bound(1.0, "the edge")),
+            ("max_drift", "drift / edge", _share_of(1.0, "the edge")),
+            ("max_penetration", "penetration / edge", _share_of(1.0, "the edge")),
         ),
     },
     "high_spin": {
