@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["convex_penetration", "overlap_along", "signed_distance_to_convex"]
+__all__ = ["convex_penetration", "overlap_along", "penetration_axes", "signed_distance_to_convex"]
 
 
 def _face_normals(V, F):
@@ -34,6 +34,27 @@ def overlap_along(u, VA, VB):
     return (VB @ u.T).max(axis=0) - (VA @ u.T).min(axis=0)
 
 
+def penetration_axes(VA, FA, VB, FB):
+    """Every candidate axis (unit, B towards A) of convex A and B, and the overlap along it.
+
+    Returns
+    -------
+    axes : (k, 3) float64
+        B's outward face normals, A's reversed, and both signs of every edge-pair cross
+        product.
+    overlaps : (k,) float64
+        ``overlap_along`` each axis.
+    """
+    candidates = [_face_normals(VB, FB), -_face_normals(VA, FA)]
+    ea, eb = _edges(VA, FA), _edges(VB, FB)
+    cross = np.cross(ea[:, None, :], eb[None, :, :]).reshape(-1, 3)
+    length = np.linalg.norm(cross, axis=1)
+    cross = cross[length > 1e-9] / length[length > 1e-9, None]
+    candidates += [cross, -cross]
+    axes = np.concatenate(candidates)
+    return axes, overlap_along(axes, VA, VB)
+
+
 def convex_penetration(VA, FA, VB, FB):
     """Penetration of convex polyhedra A and B (vertices already in the world frame).
 
@@ -45,14 +66,7 @@ def convex_penetration(VA, FA, VB, FB):
         The least overlap over all candidate axes: the penetration depth if > 0; <= 0 means
         the bodies are apart (or touch).
     """
-    candidates = [_face_normals(VB, FB), -_face_normals(VA, FA)]
-    ea, eb = _edges(VA, FA), _edges(VB, FB)
-    cross = np.cross(ea[:, None, :], eb[None, :, :]).reshape(-1, 3)
-    length = np.linalg.norm(cross, axis=1)
-    cross = cross[length > 1e-9] / length[length > 1e-9, None]
-    candidates += [cross, -cross]
-    axes = np.concatenate(candidates)
-    overlaps = overlap_along(axes, VA, VB)
+    axes, overlaps = penetration_axes(VA, FA, VB, FB)
     best = int(np.argmin(overlaps))
     return axes[best], float(overlaps[best])
 
