@@ -2,7 +2,7 @@
 
 Collision detection after the JAOC design (sweep-and-prune broad phase, OBBTree narrow phase,
 exact contact report) and quaternion rigid-body dynamics, cross-checked against python-fcl and
-pybullet. Public names only; see DESIGN.md for the contract.
+pybullet. Public names only; the contract is docs/design.md.
 """
 
 from thesis_rbd import scenes, spatial

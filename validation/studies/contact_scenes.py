@@ -101,11 +101,14 @@ def build_world(spec: SceneSpec, dt: float, **options):
     return world
 
 
-def build_pybullet(spec: SceneSpec, dt: float):
-    """The scene in pybullet, configured per pybullet issue #3094 (see ``pybullet_contact``)."""
+def build_pybullet(spec: SceneSpec, dt: float, configuration: str = "defaults"):
+    """The scene in pybullet, in one of the configurations of
+    :mod:`validation.pybullet_contact` ("defaults" or "restitution")."""
     from validation.pybullet_contact import PybulletScene
 
-    scene = PybulletScene(dt, gravity=spec.gravity, floor_half_extents=None)
+    scene = PybulletScene(
+        dt, gravity=spec.gravity, floor_half_extents=None, configuration=configuration
+    )
     for body in spec.bodies:
         mass = 0.0 if body.mass is None else body.mass
         if body.shape == "box":

@@ -327,15 +327,15 @@ class OBBTree:
 
     Notes
     -----
-    The defaults were chosen by measurement on the thesis demo (two 5000-triangle tori,
-    ``python -m validation.bench_obbtree``): the leafless tree needs half the memory of the
-    classic one (128 vs 256 bytes per triangle in float64), builds faster (about 10 vs 16 ms)
-    and answers "first" as fast; the classic tree is about 5 % faster for all pairs (it makes
-    16 % more tests, but its leaf box tests are cheaper than the leafless tree's triangle-box
-    tests). The hull fit gives about the same number of tests on that scene and builds 4-7x
-    slower (an incremental hull per node), so the triangle fit is the default. float32
-    storage halves the memory again with the same answers (every pose agreed with
-    python-fcl) and about the same speed, since the arithmetic stays float64.
+    The defaults were chosen by measurement on the thesis demo (two 5000-triangle tori; the
+    figures are in the report's ``obbtree_variants`` study and ``python -m
+    validation.bench_obbtree``): the leafless tree needs half the memory of the classic one
+    (128 against 256 bytes per triangle in float64), builds faster and answers "first" as
+    fast; the classic tree is slightly faster for all pairs, because its leaf box tests are
+    cheaper than the leafless tree's triangle-box tests. The hull fit gives about the same
+    number of tests on that scene and builds several times slower (an incremental hull per
+    node), so the triangle fit is the default. float32 storage halves the memory again with
+    the same answers and about the same speed, since the arithmetic stays float64.
 
     Attributes
     ----------

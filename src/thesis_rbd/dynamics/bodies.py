@@ -74,7 +74,7 @@ class BodyArrays:
         further than this in one step may have passed through something (a 1 cm plate's
         bounding radius is 0.42 m, its thickness 0.01 m).
     restitution, friction : (n,) float64
-        Material coefficients, combined per contact by the rules of DESIGN.md.
+        Material coefficients, combined per contact by the rules of docs/design.md.
     static : (n,) bool
         True for immovable bodies.
     collidable : (n,) bool
