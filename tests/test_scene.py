@@ -91,7 +91,7 @@ def test_every_field_reaches_the_world(tmp_path):
     assert b.mass[2] == pytest.approx(3.0)
     assert len(b.meshes[2].faces) == 2 * 12 * 8
     assert len(world.applied_forces) == 1
-    assert world.stages[:2] == ["forces", "integrate"]  # collision stages follow
+    assert world.stages[:3] == ["forces", "contacts", "integrate"]  # collision stages follow
 
 
 @pytest.mark.parametrize("extension", ["obj", "stl", "ply", "glb"])
