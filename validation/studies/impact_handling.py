@@ -82,9 +82,7 @@ def build_scene(scene: str, rate: int, mode: str):
     """The world of ``scene``; returns (world, body, restitution, support top z, mesh)."""
     import thesis_rbd as rbd
 
-    world = rbd.World(
-        dt=1.0 / rate, gravity=(0.0, 0.0, -G), penetration=mode
-    )
+    world = rbd.World(dt=1.0 / rate, gravity=(0.0, 0.0, -G), penetration=mode)
     if scene == "fast_sphere":
         world.add_body(
             rbd.shapes.box((1.0, 1.0, 0.02)), static=True, position=(0, 0, -0.01), restitution=1.0
@@ -217,9 +215,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "mean_ms_per_step": mean_cost,
         "mean_cost_ratio": mean_cost["toi"] / mean_cost["bias"],
         "toi_max_penetration": max(r["max_penetration"] for r in rows if r["mode"] == "toi"),
-        "bias_max_penetration": max(
-            r["max_penetration"] for r in rows if r["mode"] == "bias"
-        ),
+        "bias_max_penetration": max(r["max_penetration"] for r in rows if r["mode"] == "bias"),
     }
     figures = [
         _pareto(
