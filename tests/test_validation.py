@@ -128,7 +128,7 @@ def test_stability_suite_rows_hold_ours_pybullet_and_the_verdict(tiny_report):
     data = study_data(out, "stability_suite")
     summary = data["summary"]
     cases = {row["case"] for row in summary["rows"]}
-    assert {"tall_stack", "mass_ratio_stack", "long_run", "tiny_scale", "huge_scale"} <= cases
+    assert {"tall_stack", "mass_ratio_stack", "long_run", "cube_1mm", "huge_scale"} <= cases
     for row in summary["rows"]:
         assert row["ours"] is not None and row["peers"]["pybullet"]["value"] is not None
         assert row["basis"].split(":")[0] in {"physics", "geometry", "numerics"}

@@ -56,7 +56,10 @@ class MujocoScene:
         mujoco = require_mujoco()
         self.mujoco = mujoco
         parts = []
+        # MuJoCo body id of each given body (0, the world body, for static ones)
+        self._body_id = []
         for shape, size, mass, position, orientation, friction in bodies:
+            self._body_id.append(0 if mass is None else 1 + sum(i > 0 for i in self._body_id))
             geom = (
                 f'<geom type="{shape}" size="{_vector(size)}" friction="{float(friction)!r}"'
                 + ("" if mass is None else f' mass="{float(mass)!r}"')
@@ -73,16 +76,39 @@ class MujocoScene:
         )
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.data = mujoco.MjData(self.model)
-        # free bodies in order: body 0 is MuJoCo's world body
-        self._free = np.flatnonzero(self.model.body_jntnum[1:] > 0) + 1
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
         self.mujoco.mj_step(self.model, self.data, n)
 
-    def positions(self) -> np.ndarray:
-        """(m, 3) positions of the free bodies, in the order they were given."""
-        return self.data.xpos[self._free].copy()
+    def position(self, body: int) -> np.ndarray:
+        """(3,) world position of the given body's centre."""
+        return self.data.xpos[self._body_id[body]].copy()
+
+    def orientation(self, body: int) -> np.ndarray:
+        """(4,) (x, y, z, w) orientation of the given body."""
+        w, x, y, z = self.data.xquat[self._body_id[body]]
+        return np.array([x, y, z, w])
+
+    def velocity(self, body: int) -> np.ndarray:
+        """(3,) world linear velocity of the given body's centre of mass."""
+        return self._velocity(body)[3:]
+
+    def angular_velocity(self, body: int) -> np.ndarray:
+        """(3,) world angular velocity of the given body."""
+        return self._velocity(body)[:3]
+
+    def _velocity(self, body: int) -> np.ndarray:
+        out = np.zeros(6)
+        self.mujoco.mj_objectVelocity(
+            self.model, self.data, self.mujoco.mjtObj.mjOBJ_BODY, self._body_id[body], out, 0
+        )
+        return out
+
+    def max_penetration(self) -> float:
+        """Deepest active contact (m), 0 when none penetrates."""
+        contacts = self.data.contact[: self.data.ncon]
+        return float(max(0.0, -contacts.dist.min())) if self.data.ncon else 0.0
 
     def close(self) -> None:
         """Nothing to release (kept for symmetry with the pybullet peer)."""

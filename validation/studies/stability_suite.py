@@ -15,8 +15,15 @@ thesis_rbd and in pybullet, stepped at 240 Hz. pybullet runs each of them twice 
   restitution 1;
 * ``far_from_origin``: the ten-cube stack standing at (1e5, 1e5) m, compared step by step
   with the same stack at the origin;
-* ``tiny_scale``, ``huge_scale``: a 1 mm and a 1 km cube resting on a floor (metrics relative
-  to the edge).
+* ``huge_scale``: a 1 km cube resting on a floor (metrics relative to the edge);
+* the scale cases of issue 12, each with the library's defaults, sleeping and kept awake, and
+  beside pybullet and MuJoCo (when installed) at their defaults; bodies start exactly
+  touching, density 2000, on a static floor 40 body sizes wide: ``cube_10um``, ``cube_1mm``,
+  ``cube_1m``, ``cube_100m`` at rest (drift and penetration within 1 % of the edge, 5 % at
+  10 um), ``ball_2mm``, ``stack_2mm`` (five 2 mm cubes, 2 %), ``plate_20um_flat`` and
+  ``plate_20um_tilted`` (20 um plates dropped flat and at 30 degrees come to rest on the
+  floor) and ``heavy_on_light`` (100 kg on 1 kg, 1 mm); the mass-ratio stack also runs with
+  the defaults.
 
 Free-flight cases use a 1 x 2 x 3 m box of 1 kg (RK4 against pybullet's default btMultiBody,
 damping 0):
@@ -81,6 +88,7 @@ FAR = 1e5  # m, the far-from-origin stack's x and y
 
 ENGINES = {
     "ours": {"label": "thesis_rbd (defaults)", "options": {}},
+    "ours_awake": {"label": "thesis_rbd (defaults), awake", "options": {"sleeping": False}},
     "ours_exact": {
         "label": "thesis_rbd, exact solver, awake",
         "options": {"contact_solver": "exact", "sleeping": False},
@@ -94,8 +102,21 @@ ENGINES = {
         "label": "pybullet (tuned for restitution, #3094)",
         "configuration": "restitution",
     },
+    "mujoco": {"label": "MuJoCo (defaults)", "mujoco": True},
 }
 CONTACT_PEERS = ("pybullet", "pybullet_tuned")
+
+
+def _mujoco_installed() -> bool:
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# MuJoCo (optional) beside pybullet at its defaults on the cases of resting contact at scale
+RESTING_PEERS = ("pybullet", "mujoco") if _mujoco_installed() else ("pybullet",)
 FREE_PEERS = ("pybullet",)
 
 
@@ -137,6 +158,11 @@ def _rounding_bound(result: dict) -> float:
     return result["steps"] * math.ulp(FAR)
 
 
+def _fraction_of_edge(share: float, what: str = "the edge") -> Bound:
+    """A geometry bound on a metric already divided by the body's size: ``share`` of it."""
+    return Bound(share, f"geometry: {100 * share:g} % of {what}")
+
+
 CUBE_EDGE = "the 1 m cube edge"
 # name -> label; scene factory (or "free"); our engines; the peers; the length scale (m)
 # metrics are divided by (1 for absolute metrics); the metrics as (key, label, Bound).
@@ -154,7 +180,7 @@ CASES = {
     "mass_ratio_stack": {
         "label": "mass-ratio stack, 1 to 100 kg, +-5 mm",
         "scene": lambda: scenes.cube_stack(10, mass_ratio=100.0, offset=0.005),
-        "engines": ("ours_exact", "ours_pgs"),
+        "engines": ("ours", "ours_exact", "ours_pgs"),
         "peers": CONTACT_PEERS,
         "metrics": (
             ("max_drift", "largest cube drift (m)", _share_of(1.0, CUBE_EDGE)),
@@ -251,17 +277,6 @@ CASES = {
             ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
-    "tiny_scale": {
-        "label": "1 mm cube at rest",
-        "scene": lambda: scenes.cube_stack(1, edge=1e-3),
-        "engines": ("ours",),
-        "peers": CONTACT_PEERS,
-        "length": 1e-3,
-        "metrics": (
-            ("max_drift", "drift / edge", _share_of(1.0, "the edge")),
-            ("max_penetration", "penetration / edge", _share_of(1.0, "the edge")),
-        ),
-    },
     "huge_scale": {
         "label": "1 km cube at rest",
         "scene": lambda: scenes.cube_stack(1, edge=1e3),
@@ -271,6 +286,85 @@ CASES = {
         "metrics": (
             ("max_drift", "drift / edge", _share_of(1.0, "the edge")),
             ("max_penetration", "penetration / edge", _share_of(1.0, "the edge")),
+        ),
+    },
+    **{
+        f"cube_{name.replace(' ', '')}": {
+            "label": f"{name} cube at rest",
+            "scene": lambda edge=edge: scenes.scale_column(edge),
+            "engines": ("ours", "ours_awake"),
+            "peers": RESTING_PEERS,
+            "length": edge,
+            "metrics": (
+                ("max_drift", "drift / edge", _fraction_of_edge(share)),
+                ("max_penetration", "penetration / edge", _fraction_of_edge(share)),
+            ),
+        }
+        for name, edge, share in (
+            ("10 um", 1e-5, 0.05),
+            ("1 mm", 1e-3, TOLERANCE),
+            ("1 m", 1.0, TOLERANCE),
+            ("100 m", 100.0, TOLERANCE),
+        )
+    },
+    "ball_2mm": {
+        "label": "2 mm ball at rest",
+        "scene": lambda: scenes.scale_ball(2e-3),
+        "engines": ("ours", "ours_awake"),
+        "peers": RESTING_PEERS,
+        "length": 2e-3,
+        "metrics": (
+            ("max_drift", "drift / diameter", _fraction_of_edge(TOLERANCE, "the diameter")),
+            (
+                "max_penetration",
+                "penetration / diameter",
+                _fraction_of_edge(TOLERANCE, "the diameter"),
+            ),
+        ),
+    },
+    "stack_2mm": {
+        "label": "stack of five 2 mm cubes",
+        "scene": lambda: scenes.scale_column(2e-3, count=5),
+        "engines": ("ours", "ours_awake"),
+        "peers": RESTING_PEERS,
+        "length": 2e-3,
+        "metrics": (
+            ("max_drift", "largest drift / edge", _fraction_of_edge(0.02)),
+            ("max_penetration", "penetration / edge", _fraction_of_edge(0.02)),
+        ),
+    },
+    **{
+        f"plate_20um_{name}": {
+            "label": f"20 um plate dropped {name}",
+            "scene": lambda tilt=tilt: scenes.dropped_plate(20e-6, tilt),
+            "engines": ("ours", "ours_awake"),
+            "peers": RESTING_PEERS,
+            "metrics": (
+                (
+                    "final_height",
+                    "plate centre height at the end (m)",
+                    Bound(
+                        (0.0, 20e-6),
+                        "geometry: resting on the floor, between its top and one plate "
+                        "thickness above it",
+                    ),
+                ),
+            ),
+        }
+        for name, tilt in (("flat", 0.0), ("tilted", 30.0))
+    },
+    "heavy_on_light": {
+        "label": "100 kg cube on a 1 kg cube",
+        "scene": lambda: scenes.heavy_on_light(),
+        "engines": ("ours", "ours_awake"),
+        "peers": RESTING_PEERS,
+        "metrics": (
+            (
+                "max_drift",
+                "largest cube drift (m)",
+                Bound(1e-3, "geometry: 0.1 % of the 1 m edge: the light cube gives no way"),
+            ),
+            ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
     "high_spin": {
@@ -367,8 +461,11 @@ def _trace(spec, engine: str, steps: int, dt: float) -> dict:
     """Step ``spec`` in ``engine``: dynamic bodies' positions (steps + 1, n, 3), the deepest
     contact after each step (steps,), the energy (steps + 1,), final speeds (n,)."""
     dynamic = spec.dynamic()
-    if "configuration" in ENGINES[engine]:
-        scene = scenes.build_pybullet(spec, dt, ENGINES[engine]["configuration"])
+    if "configuration" in ENGINES[engine] or "mujoco" in ENGINES[engine]:
+        if "mujoco" in ENGINES[engine]:
+            scene = scenes.build_mujoco(spec, dt)
+        else:
+            scene = scenes.build_pybullet(spec, dt, ENGINES[engine]["configuration"])
 
         def positions():
             return np.array([scene.position(i) for i in dynamic])
