@@ -27,7 +27,10 @@ __all__ = [
     "elastic_pile",
     "floor",
     "heavy_on_light",
+    "poured_pile",
     "pyramid",
+    "resting_grid",
+    "resting_row",
     "scale_ball",
     "scale_column",
     "thin_plate",
@@ -106,13 +109,18 @@ def build_world(spec: SceneSpec, dt: float, **options):
     return world
 
 
-def build_pybullet(spec: SceneSpec, dt: float, configuration: str = "defaults"):
+def build_pybullet(spec: SceneSpec, dt: float, configuration: str = "defaults", sleeping=True):
     """The scene in pybullet, in one of the configurations of
-    :mod:`validation.pybullet_contact` ("defaults" or "restitution")."""
+    :mod:`validation.pybullet_contact` ("defaults" or "restitution"); ``sleeping=False``
+    keeps its bodies awake."""
     from validation.pybullet_contact import PybulletScene
 
     scene = PybulletScene(
-        dt, gravity=spec.gravity, floor_half_extents=None, configuration=configuration
+        dt,
+        gravity=spec.gravity,
+        floor_half_extents=None,
+        configuration=configuration,
+        sleeping=sleeping,
     )
     for body in spec.bodies:
         mass = 0.0 if body.mass is None else body.mass
@@ -311,3 +319,43 @@ def heavy_on_light(heavy: float = 100.0, light: float = 1.0) -> SceneSpec:
             BodySpec("box", (1.0, 1.0, 1.0), heavy, (0.0, 0.0, 1.5)),
         ]
     )
+
+
+def resting_row(count: int, spacing: float = 1.5) -> SceneSpec:
+    """``count`` unit cubes (1 kg, friction 0.5) resting on a floor in a row ``spacing``
+    apart, each touching the floor exactly."""
+    bodies = [floor(spacing * count + 4.0)]
+    for i in range(count):
+        x = (i - (count - 1) / 2) * spacing
+        bodies.append(BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, 0.0, 0.5)))
+    return SceneSpec(bodies)
+
+
+def resting_grid(count: int, spacing: float = 1.5) -> SceneSpec:
+    """``count`` unit cubes resting on a floor in a square grid ``spacing`` apart."""
+    side = int(np.ceil(np.sqrt(count)))
+    bodies = [floor(spacing * side + 4.0)]
+    for k in range(count):
+        i, j = divmod(k, side)
+        x, y = (i - (side - 1) / 2) * spacing, (j - (side - 1) / 2) * spacing
+        bodies.append(BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, y, 0.5)))
+    return SceneSpec(bodies)
+
+
+def poured_pile(
+    count: int = 256, columns: int = 4, spacing: float = 1.8, seed: int = 1
+) -> SceneSpec:
+    """``count`` unit cubes in random orientations, in a lattice of ``columns`` x ``columns``
+    stacks ``spacing`` apart, released above a floor: after a few seconds they lie in a
+    tumbled pile."""
+    rng = np.random.default_rng(seed)
+    bodies = [floor(columns * spacing * 4.0)]
+    for k in range(count):
+        layer, cell = divmod(k, columns * columns)
+        i, j = divmod(cell, columns)
+        x, y = (i - (columns - 1) / 2) * spacing, (j - (columns - 1) / 2) * spacing
+        orientation = tuple(Rotation.random(random_state=rng).as_quat())
+        bodies.append(
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, y, 1.0 + spacing * layer), orientation)
+        )
+    return SceneSpec(bodies)
