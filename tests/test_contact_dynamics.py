@@ -1,4 +1,10 @@
-"""Contact dynamics in a World against analytic answers (issue 5's acceptance list)."""
+"""Contact dynamics in a World against analytic answers (issue 5's acceptance list).
+
+Every test runs under both narrow phases: "auto" (convex pairs as convex polyhedra) and
+"mesh" (the OBBTree for every pair).
+"""
+
+import functools
 
 import numpy as np
 import pytest
@@ -11,6 +17,13 @@ DT = 1 / 240
 FLOOR = rbd.shapes.box((4.0, 4.0, 1.0))
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))
 BALL = rbd.shapes.icosphere(0.5, 3)
+
+
+@pytest.fixture(autouse=True, params=["auto", "mesh"])
+def narrow_phase(request, monkeypatch):
+    """rbd.World with the narrow phase of this run."""
+    monkeypatch.setattr(rbd, "World", functools.partial(rbd.World, narrow_phase=request.param))
+    return request.param
 
 
 def floor_world(**options):

@@ -144,7 +144,8 @@ class Scene:
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
-        contact_solver, contact_iterations, friction_sides, bounce_threshold, slop, penetration.
+        contact_solver, contact_iterations, friction_sides, bounce_threshold, slop, penetration,
+        narrow_phase.
     bodies : tuple of BodySpec
         In world index order.
     source : str
@@ -300,6 +301,7 @@ _WORLD_KEYS = (
     "bounce_threshold",
     "slop",
     "penetration",
+    "narrow_phase",
 )
 # type checks of the contact settings; World checks their values (see _check_world)
 _CONTACT_CHECKS = {
@@ -310,6 +312,7 @@ _CONTACT_CHECKS = {
     "bounce_threshold": lambda v, w: _non_negative_number(v, w),
     "slop": lambda v, w: _positive_number(v, w),
     "penetration": lambda v, w: _as_string(v, w),
+    "narrow_phase": lambda v, w: _as_string(v, w),
 }
 
 

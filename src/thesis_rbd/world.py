@@ -88,6 +88,9 @@ class World:
         Step impacting islands back to the time of impact, or only project positions.
     sleeping : bool
         Let islands at rest fall asleep (frozen, free of cost) until touched or pushed.
+    narrow_phase : {"auto", "mesh"}
+        "auto": pairs of convex bodies collide as convex polyhedra (separating axes, GJK and
+        EPA), the others through the OBBTree; "mesh": the OBBTree for every pair.
     """
 
     def __init__(
@@ -106,6 +109,7 @@ class World:
         slop: float = 1e-4,
         penetration: str = "toi",
         sleeping: bool = True,
+        narrow_phase: str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
@@ -132,7 +136,7 @@ class World:
             slop=slop,
             penetration=penetration,
         )
-        self._collision = CollisionPipeline()
+        self._collision = CollisionPipeline(narrow_phase)
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._impulse_cache = ImpulseCache()
         self._resolved: dict[str, np.ndarray] | None = None
