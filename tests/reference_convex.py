@@ -134,7 +134,8 @@ def contact_polygon(points_a, points_b, normal):
     The reference face is B's face with outward normal ``normal`` or A's with ``-normal``
     (whichever exists, B's first); the incident face is the other body's face whose outward
     normal is most opposed to the reference normal. Returns (corners (k, 3), incident
-    ambiguous: bool, depths (k,) of the corners below the reference plane), corners empty
+    ambiguous: bool, depths (k,) of the corners below the reference plane, the cosine
+    between the incident face's normal and the reversed reference normal), corners empty
     when the region is degenerate.
     """
     faces_a, faces_b = _faces_of(points_a), _faces_of(points_b)
@@ -149,7 +150,7 @@ def contact_polygon(points_a, points_b, normal):
                 reference, incident_faces = (n, d, pts), faces_b
                 break
     if reference is None:
-        return np.zeros((0, 3)), True, np.zeros(0)
+        return np.zeros((0, 3)), True, np.zeros(0), 0.0
     n, d, ref_pts = reference
     opposed = np.array([m @ n for m, _, _ in incident_faces])
     order = np.argsort(opposed)
@@ -178,12 +179,12 @@ def contact_polygon(points_a, points_b, normal):
     )
     scale = np.abs(ref2).max() + np.abs(inc2).max()
     if res.status != 0 or res.x[2] <= 1e-9 * scale:
-        return np.zeros((0, 3)), ambiguous, np.zeros(0)
+        return np.zeros((0, 3)), ambiguous, np.zeros(0), -opposed[order[0]]
     corners = HalfspaceIntersection(halfplanes, res.x[:2]).intersections
     corners = corners[ConvexHull(corners).vertices]
     depth = corners @ fit[:2] + fit[2]
     world = origin + corners[:, :1] * u + corners[:, 1:] * v - depth[:, None] * n
-    return world, ambiguous, depth
+    return world, ambiguous, depth, -opposed[order[0]]
 
 
 def polygon_area(points, normal):

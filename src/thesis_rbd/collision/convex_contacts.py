@@ -53,6 +53,11 @@ _SCAN_FACES = 64
 # An edge axis closer than this (rad) to the normal of a face beside the edges gets that
 # face's clipped manifold instead of one point
 _FLAT_EDGE_ANGLE = 1e-2
+# Incident faces this close to parallel with the reference face (cosine) are clipped at the
+# reference plane too; tilted ones keep only their corners below it
+_PARALLEL_COSINE = math.cos(1e-2)
+# Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
+_DEEPEST_VERTEX_TAG = (1 << 21) - 1
 _FACE_BITS = 20
 _FACE_MASK = (1 << _FACE_BITS) - 1
 
@@ -128,6 +133,28 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
 
 
 @njit
+def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, out):
+    """Hull h's vertex farthest against (nx, ny, nz) (A's frame) into out[0] (A's frame);
+    h is B's hull when ``kind`` is FACE_A (mapped by R, t), A's otherwise."""
+    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    v0, v1 = vertex_start[h], vertex_start[h + 1]
+    if kind == FACE_A:
+        mx = -(R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz)
+        my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
+        mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
+    else:
+        mx, my, mz = -nx, -ny, -nz
+    v = v0 + support_vertex(vertices[v0:v1], neighbor_start[v0 : v1 + 1], neighbors,
+                            mx, my, mz, 0)  # fmt: skip
+    x, y, z = vertices[v, 0], vertices[v, 1], vertices[v, 2]
+    if kind == FACE_A:
+        for a in range(3):
+            out[0, a] = R[a, 0] * x + R[a, 1] * y + R[a, 2] * z + t[a]
+    else:
+        out[0, 0], out[0, 1], out[0, 2] = x, y, z
+
+
+@njit
 def _gather_loop(H, h, face, R, t, out):
     """Face ``face`` of hull h's corners mapped by x -> R x + t into ``out``; their count."""
     vertex_start, vertices, face_start, loop_start, loops = H[0], H[1], H[7], H[9], H[10]
@@ -157,6 +184,7 @@ def _face_manifold(
     eye = np.eye(3)
     zero = np.zeros(3)
     if kind == FACE_A:
+        inc_hull = hb
         f = face_start[ha] + reference_face
         nx, ny, nz, d = planes[f, 0], planes[f, 1], planes[f, 2], planes[f, 3]
         # the incident face is B's most opposed to n: search along -R^T n in B's frame
@@ -167,6 +195,7 @@ def _face_manifold(
         k = _gather_loop(H, ha, reference_face, eye, zero, reference)
         m = _gather_loop(H, hb, incident_face, R, t, incident)
     else:
+        inc_hull = ha
         f = face_start[hb] + reference_face
         bx, by, bz = planes[f, 0], planes[f, 1], planes[f, 2]
         nx = R[0, 0] * bx + R[0, 1] * by + R[0, 2] * bz
@@ -176,10 +205,26 @@ def _face_manifold(
         incident_face = _incident_face(H, ha, -nx, -ny, -nz, 0)
         k = _gather_loop(H, hb, reference_face, R, t, reference)
         m = _gather_loop(H, ha, incident_face, eye, zero, incident)
+    # the incident face's normal (A's frame) against the reference normal
+    g = face_start[inc_hull] + incident_face
+    mx, my, mz = planes[g, 0], planes[g, 1], planes[g, 2]
+    if kind == FACE_A:
+        mx, my, mz = (
+            R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz,
+            R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz,
+            R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz,
+        )
+    parallel = -(mx * nx + my * ny + mz * nz) >= _PARALLEL_COSINE
     count = clip_incident_face(
-        reference, k, nx, ny, nz, d, incident, m, points, tags, spare, spare_tags, labels,
-        spare_labels,
+        reference, k, nx, ny, nz, d, incident, m, parallel, tolerance, points, tags, spare,
+        spare_tags, labels, spare_labels, depths,
     )  # fmt: skip
+    if count == 0:
+        # no corner of the incident face below the reference plane: the incident hull's
+        # deepest vertex (its support against the reference normal) is the contact
+        count = 1
+        tags[0] = _DEEPEST_VERTEX_TAG
+        _deepest_vertex(H, inc_hull, kind, R, t, nx, ny, nz, points)
     # drop corners that repeat their predecessor (a vertex on a clip plane)
     kept = 0
     for q in range(count):
@@ -263,7 +308,7 @@ def _query_scratch(H):
         np.empty((most_f, 4)),
         np.empty((most_e, 3)),
         np.empty((min(most_f, side), min(most_e, side))),
-        np.empty((min(most_f, side), min(most_e, side))),
+        np.empty((min(most_e, side), min(most_f, side))),
         epa_scratch(),
     )
 

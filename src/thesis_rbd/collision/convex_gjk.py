@@ -39,6 +39,9 @@ _EPA_VERTICES = _EPA_ITERATIONS + 4
 # EPA stops when a support point lies no further than this fraction of the hulls' sizes
 # beyond the nearest face: the face is on M's boundary to round-off.
 _EPA_TOLERANCE = 1e-11
+# The exact axis is sought among features within this angle (rad) of EPA's normal
+_AXIS_ANGLE = 1e-2
+_AXIS_COSINE = math.cos(_AXIS_ANGLE)
 
 
 @njit
@@ -387,12 +390,14 @@ def _rotate(R, x, y, z):
 
 
 @njit
-def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
+def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie, px, py, pz):
     """Largest separation over the features around the given vertices of A and of B.
 
     Candidates: faces of A around ``corners_a``, faces of B around ``corners_b``, and the
-    pairs of their edges that build a Minkowski face. Returns (kind, i, j, separation, ux,
-    uy, uz) as ``sat_query``.
+    pairs of their edges that build a Minkowski face, each only if its axis is within
+    ``_AXIS_ANGLE`` of EPA's normal (px, py, pz): the face of M that EPA stopped on lies
+    in the plane of the true one, so the axis sought is EPA's to round-off. Returns (kind,
+    i, j, separation, ux, uy, uz) as ``sat_query``.
     """
     (vertex_start, vertices, neighbor_start, neighbors, neighbor_edges, vertex_face_start,
      vertex_faces, face_start, planes, _, _, edge_start, edges, edge_faces, edge_arcs,
@@ -405,6 +410,8 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
         for k in range(vertex_face_start[a0 + ca], vertex_face_start[a0 + ca + 1]):
             f = fa0 + vertex_faces[k]
             nx, ny, nz = planes[f, 0], planes[f, 1], planes[f, 2]
+            if nx * px + ny * py + nz * pz < _AXIS_COSINE:
+                continue
             x, y, z, _ = _support_b_along(H, hb, R, t, -nx, -ny, -nz, corners_b[0])
             s = nx * x + ny * y + nz * z - planes[f, 3]
             if s > sep_a:
@@ -415,6 +422,8 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
         for k in range(vertex_face_start[b0 + cb], vertex_face_start[b0 + cb + 1]):
             g = fb0 + vertex_faces[k]
             nx, ny, nz = _rotate(R, planes[g, 0], planes[g, 1], planes[g, 2])
+            if -(nx * px + ny * py + nz * pz) < _AXIS_COSINE:
+                continue
             d = planes[g, 3] + nx * t[0] + ny * t[1] + nz * t[2]
             v = support_vertex(A, neighbor_start[a0 : vertex_start[ha + 1] + 1], neighbors,
                                -nx, -ny, -nz, corners_a[0])  # fmt: skip
@@ -436,6 +445,16 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
             for cb in corners_b:
                 for kb in range(neighbor_start[b0 + cb], neighbor_start[b0 + cb + 1]):
                     j = neighbor_edges[kb]
+                    pb = vertices[b0 + edges[eb0 + j, 0]]
+                    qb = vertices[b0 + edges[eb0 + j, 1]]
+                    dbx, dby, dbz = _rotate(R, qb[0] - pb[0], qb[1] - pb[1], qb[2] - pb[2])
+                    ux = day * dbz - daz * dby
+                    uy = daz * dbx - dax * dbz
+                    uz = dax * dby - day * dbx
+                    along = ux * px + uy * py + uz * pz
+                    length2 = ux * ux + uy * uy + uz * uz
+                    if along * along < _AXIS_COSINE**2 * length2 or length2 == 0.0:
+                        continue
                     fc, fd = fb0 + edge_faces[eb0 + j, 0], fb0 + edge_faces[eb0 + j, 1]
                     cx, cy, cz = _rotate(R, planes[fc, 0], planes[fc, 1], planes[fc, 2])
                     dx, dy, dz = _rotate(R, planes[fd, 0], planes[fd, 1], planes[fd, 2])
@@ -449,19 +468,9 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
                     s4 = planes[fb, 0] * bx + planes[fb, 1] * by + planes[fb, 2] * bz
                     if s3 * s4 >= 0.0 or s1 * s4 >= 0.0:
                         continue
-                    pb = vertices[b0 + edges[eb0 + j, 0]]
-                    qb = vertices[b0 + edges[eb0 + j, 1]]
                     pbx, pby, pbz = _rotate(R, pb[0], pb[1], pb[2])
                     pbx, pby, pbz = pbx + t[0], pby + t[1], pbz + t[2]
-                    dbx, dby, dbz = _rotate(R, qb[0] - pb[0], qb[1] - pb[1], qb[2] - pb[2])
-                    ux = day * dbz - daz * dby
-                    uy = daz * dbx - dax * dbz
-                    uz = dax * dby - day * dbx
-                    length = math.sqrt(ux * ux + uy * uy + uz * uz)
-                    if length <= 1e-9 * math.sqrt(
-                        (dax * dax + day * day + daz * daz) * (dbx * dbx + dby * dby + dbz * dbz)
-                    ):
-                        continue
+                    length = math.sqrt(length2)
                     ux, uy, uz = ux / length, uy / length, uz / length
                     if ux * (pa[0] - cax) + uy * (pa[1] - cay) + uz * (pa[2] - caz) < 0.0:
                         ux, uy, uz = -ux, -uy, -uz
@@ -479,6 +488,16 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie):
     if sep_e > face_sep + tie:
         return EDGES, edge_a, edge_b, sep_e, ex, ey, ez
     return kind, index, 0, face_sep, fx, fy, fz
+
+
+@njit
+def _distinct(a, b, c):
+    """The distinct values among a, b, c, as an array."""
+    if a == b:
+        return np.array([a, c]) if c != a else np.array([a])
+    if c == a or c == b:
+        return np.array([a, b])
+    return np.array([a, b, c])
 
 
 @njit
@@ -501,7 +520,7 @@ def _sat_fallback(H, ha, hb, R, t, tie):
         vertices[va0:va1], planes[fa0:fa1], edges[ea0:ea1], edge_faces[ea0:ea1],
         edge_arcs[ea0:ea1], centroids[ha],
         placed_vertices, placed_planes, edges[eb0:eb1], edge_faces[eb0:eb1], placed_arcs,
-        0, 0, 0, tie, np.empty((fa1 - fa0, eb1 - eb0)), np.empty((fb1 - fb0, ea1 - ea0)),
+        0, 0, 0, tie, np.empty((fa1 - fa0, eb1 - eb0)), np.empty((ea1 - ea0, fb1 - fb0)),
     )  # fmt: skip
 
 
@@ -549,12 +568,10 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
     if status == 0:
         ok, face = _epa(H, ha, hb, R, t, P, ia, ib, scratch, tolerance)
         if ok:
-            corners_a = np.empty(3, np.int64)
-            corners_b = np.empty(3, np.int64)
-            for k in range(3):
-                corners_a[k] = va[faces[face, k]]
-                corners_b[k] = vb[faces[face, k]]
-            result = _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie)
+            corners_a = _distinct(va[faces[face, 0]], va[faces[face, 1]], va[faces[face, 2]])
+            corners_b = _distinct(vb[faces[face, 0]], vb[faces[face, 1]], vb[faces[face, 2]])
+            result = _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie,
+                                 planes[face, 0], planes[face, 1], planes[face, 2])  # fmt: skip
             # EPA bounds the depth from both sides: the features must reach that depth
             if -result[3] <= planes[face, 3] + 2.0 * tolerance + tie:
                 return result

@@ -43,16 +43,16 @@ _TAG_MASK = (1 << TAG_BITS) - 1
 
 
 @njit
-def _clip(src, src_tag, src_label, count, nx, ny, nz, d, plane, dst, dst_tag, dst_label):
-    """Keep the part of polygon ``src`` (first ``count`` rows) with n.x <= d; returns the
-    new count. A crossing point's label is the clip plane's when the polygon runs along it
-    from there."""
+def _clip(src, src_tag, src_label, count, distance, plane, dst, dst_tag, dst_label):
+    """Keep the part of polygon ``src`` (first ``count`` rows) whose signed ``distance`` from
+    the clip plane is <= 0; returns the new count. A crossing point's label is the clip
+    plane's when the polygon runs along it from there."""
     out = 0
     plane_label = _SIDE_LABEL + (plane & _LABEL_MASK)
     for k in range(count):
         q = k + 1 if k + 1 < count else 0
-        dp = nx * src[k, 0] + ny * src[k, 1] + nz * src[k, 2] - d
-        dq = nx * src[q, 0] + ny * src[q, 1] + nz * src[q, 2] - d
+        dp = distance[k]
+        dq = distance[q]
         if dp <= 0.0:
             dst[out, 0], dst[out, 1], dst[out, 2] = src[k, 0], src[k, 1], src[k, 2]
             dst_tag[out] = src_tag[k]
@@ -70,10 +70,17 @@ def _clip(src, src_tag, src_label, count, nx, ny, nz, d, plane, dst, dst_tag, ds
 
 @njit
 def clip_incident_face(
-    reference, reference_count, nx, ny, nz, d, incident, incident_count,
-    points, tags, spare, spare_tags, labels, spare_labels,
+    reference, reference_count, nx, ny, nz, d, incident, incident_count, parallel, tolerance,
+    points, tags, spare, spare_tags, labels, spare_labels, distance,
 ):  # fmt: skip
     """The part of the incident polygon over the reference face and below its plane.
+
+    Nearly ``parallel`` faces are clipped at the reference plane too, so the polygon keeps
+    its corners where the incident face dips below the plane; a tilted incident face keeps
+    only its corners at or below the plane (a vertex pressed into a face is one point, not
+    the vertex and two crossings of its face's edges, which would spin a ball landing on
+    it). Distances within ``tolerance`` of a clip plane count as on it, so faces flush with
+    a side of the reference face keep their corners.
 
     Parameters
     ----------
@@ -83,7 +90,8 @@ def clip_incident_face(
     incident : (>= m, 3) float64
         The incident face's corners, in loop order.
     points, spare : (>= m + k + 1, 3) float64 scratch; tags, spare_tags, labels,
-        spare_labels : (>= m + k + 1,) int64 scratch
+        spare_labels : (>= m + k + 1,) int64 scratch; distance : (>= m + k + 1,) float64
+        scratch
 
     Returns
     -------
@@ -110,19 +118,33 @@ def clip_incident_face(
                 continue
             sx, sy, sz = sx / length, sy / length, sz / length
             sd = sx * reference[e, 0] + sy * reference[e, 1] + sz * reference[e, 2]
-        else:
+        elif parallel:
             sx, sy, sz, sd = nx, ny, nz, d
-        count = _clip(src, src_tag, src_label, count, sx, sy, sz, sd, e, dst, dst_tag, dst_label)
+        else:
+            break
+        # a plane with every corner inside (the reference face's far sides, for a small
+        # incident face on a large reference face) changes nothing
+        outside = False
+        for k in range(count):
+            gap = sx * src[k, 0] + sy * src[k, 1] + sz * src[k, 2] - sd
+            distance[k] = 0.0 if abs(gap) <= tolerance else gap
+            outside |= distance[k] > 0.0
+        if not outside:
+            continue
+        count = _clip(src, src_tag, src_label, count, distance, e, dst, dst_tag, dst_label)
         src, dst = dst, src
         src_tag, dst_tag = dst_tag, src_tag
         src_label, dst_label = dst_label, src_label
         if count == 0:
             break
-    if src is not points:
-        for k in range(count):
-            points[k] = src[k]
-            tags[k] = src_tag[k]
-    return count
+    kept = 0
+    for k in range(count):
+        if not parallel and (nx * src[k, 0] + ny * src[k, 1] + nz * src[k, 2] - d > tolerance):
+            continue
+        points[kept] = src[k]
+        tags[kept] = src_tag[k]
+        kept += 1
+    return kept
 
 
 @njit

@@ -96,11 +96,12 @@ def _face_query(planes, vertices, count):
 
 
 @njit
-def edge_pair_separation(vertices_a, edges_a, ea, centroid_a, vertices_b, edges_b, eb):
+def edge_pair_separation(vertices_a, edges_a, ea, centroid_a, vertices_b, edges_b, eb, above):
     """Separation of B beyond A along the cross product of edge ea of A and edge eb of B.
 
     The axis points away from A's centroid. Returns (separation, ux, uy, uz), or -inf when
-    the edges are parallel. Meaningful only for pairs that build a Minkowski face.
+    the edges are parallel or the separation is not above ``above`` (< 0), which is decided
+    without a square root. Meaningful only for pairs that build a Minkowski face.
     """
     ta, ha = edges_a[ea, 0], edges_a[ea, 1]
     tb, hb = edges_b[eb, 0], edges_b[eb, 1]
@@ -113,50 +114,35 @@ def edge_pair_separation(vertices_a, edges_a, ea, centroid_a, vertices_b, edges_
     ux = ay * bz - az * by
     uy = az * bx - ax * bz
     uz = ax * by - ay * bx
-    length = math.sqrt(ux * ux + uy * uy + uz * uz)
-    if length <= _PARALLEL_SINE * math.sqrt(
-        (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz)
-    ):
+    length2 = ux * ux + uy * uy + uz * uz
+    if length2 <= _PARALLEL_SINE**2 * (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz):
         return -np.inf, 0.0, 0.0, 0.0
-    ux /= length
-    uy /= length
-    uz /= length
     px, py, pz = vertices_a[ta, 0], vertices_a[ta, 1], vertices_a[ta, 2]
     if ux * (px - centroid_a[0]) + uy * (py - centroid_a[1]) + uz * (pz - centroid_a[2]) < 0.0:
         ux, uy, uz = -ux, -uy, -uz
-    s = (
+    raw = (
         ux * (vertices_b[tb, 0] - px)
         + uy * (vertices_b[tb, 1] - py)
         + uz * (vertices_b[tb, 2] - pz)
     )
-    return s, ux, uy, uz
+    # raw / |u| > above (< 0): true for raw >= 0, else when raw^2 < above^2 |u|^2
+    if raw < 0.0 and raw * raw >= above * above * length2:
+        return -np.inf, 0.0, 0.0, 0.0
+    length = math.sqrt(length2)
+    return raw / length, ux / length, uy / length, uz / length
 
 
 @njit
-def _builds_minkowski_face(arc_signs_b, arc_signs_a, faces_a, ea, faces_b, eb):
-    """Whether edge ea of A and edge eb of B build a face of the Minkowski difference A - B.
-
-    ``arc_signs_b[g, ea]`` is B's face normal g dotted with A's arc normal, ``arc_signs_a[f,
-    eb]`` A's face normal f dotted with B's arc normal: A's arc and B's negated arc cross
-    when B's arc ends lie on both sides of A's arc plane and vice versa, on the same
-    hemisphere.
-    """
-    s1 = arc_signs_b[faces_b[eb, 0], ea]
-    s2 = arc_signs_b[faces_b[eb, 1], ea]
-    if s1 * s2 >= 0.0:
-        return False
-    s3 = arc_signs_a[faces_a[ea, 0], eb]
-    s4 = arc_signs_a[faces_a[ea, 1], eb]
-    return s3 * s4 < 0.0 and s1 * s4 < 0.0
-
-
-@njit
-def _arc_signs(planes, face_count, arcs, edge_count, out):
-    """out[f, e] = normal of face f . arc normal of edge e."""
+def _arc_signs(planes, face_count, arcs, edge_count, out, by_edge):
+    """Face normals dotted with arc normals: out[f, e], or out[e, f] with ``by_edge``."""
     for f in range(face_count):
         nx, ny, nz = planes[f, 0], planes[f, 1], planes[f, 2]
         for e in range(edge_count):
-            out[f, e] = nx * arcs[e, 0] + ny * arcs[e, 1] + nz * arcs[e, 2]
+            s = nx * arcs[e, 0] + ny * arcs[e, 1] + nz * arcs[e, 2]
+            if by_edge:
+                out[e, f] = s
+            else:
+                out[f, e] = s
 
 
 @njit
@@ -178,7 +164,7 @@ def sat_query(
     tie : float
         Separations closer than this count as equal: a face of A wins over a face of B and a
         face over an edge pair unless beaten by more, so round-off does not flip features.
-    signs_a, signs_b : (>= f_a, >= e_b) and (>= f_b, >= e_a) float64 scratch
+    signs_a, signs_b : (>= f_a, >= e_b) and (>= e_a, >= f_b) float64 scratch
 
     Returns
     -------
@@ -203,7 +189,7 @@ def sat_query(
                 -planes_b[cached_i, 2]  # fmt: skip
     elif cached_kind == EDGES and cached_i < edges_a.shape[0] and cached_j < edges_b.shape[0]:
         s, ux, uy, uz = edge_pair_separation(
-            vertices_a, edges_a, cached_i, centroid_a, vertices_b, edges_b, cached_j
+            vertices_a, edges_a, cached_i, centroid_a, vertices_b, edges_b, cached_j, -np.inf
         )
         if s > 0.0:
             return EDGES, cached_i, cached_j, s, ux, uy, uz
@@ -217,22 +203,33 @@ def sat_query(
         return FACE_B, face_b, 0, sep_b, -planes_b[face_b, 0], -planes_b[face_b, 1], \
             -planes_b[face_b, 2]  # fmt: skip
 
+    # Edge pairs, pruned on the Gauss map: edge i of A and edge j of B build a Minkowski
+    # face when A's arc and B's negated arc cross: B's arc ends (the normals of B's faces
+    # beside j) lie on both sides of A's arc plane, A's arc ends on both sides of B's, and
+    # on the same hemisphere. signs_b[i, g] is A's arc normal i . B's face normal g,
+    # signs_a[f, j] A's face normal f . B's arc normal j.
     ea_count, eb_count = edges_a.shape[0], edges_b.shape[0]
-    _arc_signs(planes_a, planes_a.shape[0], arcs_b, eb_count, signs_a)
-    _arc_signs(planes_b, planes_b.shape[0], arcs_a, ea_count, signs_b)
+    _arc_signs(planes_a, planes_a.shape[0], arcs_b, eb_count, signs_a, False)
+    _arc_signs(planes_b, planes_b.shape[0], arcs_a, ea_count, signs_b, True)
     sep_e, edge_a, edge_b = -np.inf, -1, -1
     ex = ey = ez = 0.0
     for i in range(ea_count):
+        across = signs_b[i]
+        beside_first = signs_a[faces_a[i, 0]]
+        beside_second = signs_a[faces_a[i, 1]]
         for j in range(eb_count):
-            if not _builds_minkowski_face(signs_b, signs_a, faces_a, i, faces_b, j):
-                continue
-            s, ux, uy, uz = edge_pair_separation(
-                vertices_a, edges_a, i, centroid_a, vertices_b, edges_b, j
-            )
-            if s > sep_e:
-                sep_e, edge_a, edge_b, ex, ey, ez = s, i, j, ux, uy, uz
-                if s > 0.0:
-                    return EDGES, i, j, s, ux, uy, uz
+            s1 = across[faces_b[j, 0]]
+            s2 = across[faces_b[j, 1]]
+            s4 = beside_second[j]
+            # one branch for the three tests: most pairs fail, and unpredictably
+            if (s1 * s2 < 0.0) & (beside_first[j] * s4 < 0.0) & (s1 * s4 < 0.0):
+                s, ux, uy, uz = edge_pair_separation(
+                    vertices_a, edges_a, i, centroid_a, vertices_b, edges_b, j, sep_e
+                )
+                if s > sep_e:
+                    sep_e, edge_a, edge_b, ex, ey, ez = s, i, j, ux, uy, uz
+                    if s > 0.0:
+                        return EDGES, i, j, s, ux, uy, uz
 
     if sep_b > sep_a + tie:
         kind, index, face_sep = FACE_B, face_b, sep_b
