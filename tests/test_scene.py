@@ -124,10 +124,12 @@ def test_contact_settings_reach_the_world(tmp_path):
         bounce_threshold = 0.5
         slop = 0.001
         penetration = "toi"
+        narrow_phase = "mesh"
         """,
     )
     world = rbd.load_scene(path).build()
     assert world.contact_response is False
+    assert world.narrow_phase == "mesh"
     settings = world.contact_settings
     assert (settings.solver, settings.iterations, settings.friction_sides) == ("exact", 12, 4)
     assert (settings.bounce_threshold, settings.slop, settings.penetration) == (0.5, 0.001, "toi")
@@ -136,6 +138,8 @@ def test_contact_settings_reach_the_world(tmp_path):
         rbd.load_scene(bad)
     with pytest.raises(SceneError, match=r"overrides: .*magic"):
         rbd.load_scene(path).with_world(contact_solver="magic")
+    with pytest.raises(SceneError, match=r"\[world\]: unknown narrow_phase 'convex'"):
+        rbd.load_scene(path).with_world(narrow_phase="convex")
 
 
 def test_defaults_are_the_world_defaults(tmp_path):

@@ -137,6 +137,7 @@ class World:
             penetration=penetration,
         )
         self._collision = CollisionPipeline(narrow_phase)
+        self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._impulse_cache = ImpulseCache()
         self._resolved: dict[str, np.ndarray] | None = None

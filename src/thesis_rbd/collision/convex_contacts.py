@@ -53,6 +53,11 @@ _SCAN_FACES = 64
 # An edge axis closer than this (rad) to the normal of a face beside the edges gets that
 # face's clipped manifold instead of one point
 _FLAT_EDGE_ANGLE = 1e-2
+# Contact corners whose depths differ by less than this fraction of the hulls' sizes are
+# equally deep when four are kept: a face resting on a face, tilted by round-off or by a
+# few micro-radians, keeps its widest four corners whichever way it tilts, instead of
+# flipping between sets as the tilt does. (Every contact reports the pair's depth.)
+_FLAT = 1e-5
 # Incident faces this close to parallel with the reference face (cosine) are clipped at the
 # reference plane too; tilted ones keep only their corners below it
 _PARALLEL_COSINE = math.cos(1e-2)
@@ -171,14 +176,15 @@ def _gather_loop(H, h, face, R, t, out):
 
 @njit
 def _face_manifold(
-    H, ha, hb, kind, reference_face, R, t, tolerance,
+    H, ha, hb, kind, reference_face, R, t, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
     Ri, ti, out_points, out_depths, out_features, c,
 ):  # fmt: skip
     """Contacts of a face axis into the outputs from row c (world frame); their count.
 
     ``kind`` is FACE_A (reference face on A) or FACE_B; (R, t) maps B into A's frame and
-    (Ri, ti) A into the world.
+    (Ri, ti) A into the world. Corners less deep than the deepest by at most ``flat`` are
+    as deep for the choice of four (``four_corners``).
     """
     planes, face_start = H[8], H[7]
     eye = np.eye(3)
@@ -248,7 +254,7 @@ def _face_manifold(
         kept -= 1
     for q in range(kept):
         depths[q] = max(d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2]), 0.0)
-    n_keep = four_corners(points, depths, kept, nx, ny, nz, tolerance, keep)
+    n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
     for r in range(n_keep):
         q = keep[r]
         half = 0.5 * depths[q]
@@ -349,7 +355,8 @@ def convex_contacts_for_pairs(
         World contact points (midway between the two surfaces) and unit normals from b
         towards a.
     depths : (c,) float64
-        Penetration depths >= 0.
+        Penetration depth >= 0 of the pair (the same for all its contacts, as the mesh
+        path's contacts carry their region's depth).
     faces : (c, 2) int64
         -1: hull faces are not mesh triangles.
     features : (c,) int64
@@ -410,6 +417,7 @@ def convex_contacts_for_pairs(
         if separation > 0.0:
             continue
         tolerance = _TIE * (sizes[ha] + sizes[hb])
+        flat = _FLAT * (sizes[ha] + sizes[hb])
         count = 0
         if kind == EDGES:
             # an edge axis within a small angle of a face beside the edges (a face hanging
@@ -418,14 +426,10 @@ def convex_contacts_for_pairs(
             face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
             if face_kind:
                 count, _, _, _ = _face_manifold(
-                    H, ha, hb, face_kind, face, R, t, tolerance, reference, incident, points,
+                    H, ha, hb, face_kind, face, R, t, tolerance, flat, reference, incident, points,
                     tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta,
                     out_points, out_depths, out_features, c,
                 )  # fmt: skip
-                if count:
-                    deepest = out_depths[c : c + count].max()
-                    for r in range(c, c + count):
-                        out_depths[r] = max(out_depths[r] - deepest - separation, 0.0)
             if count == 0:
                 count = 1
                 _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
@@ -435,7 +439,7 @@ def convex_contacts_for_pairs(
             nx, ny, nz = -ux, -uy, -uz
         else:
             count, nx, ny, nz = _face_manifold(
-                H, ha, hb, kind, fi, R, t, tolerance, reference, incident, points, tags,
+                H, ha, hb, kind, fi, R, t, tolerance, flat, reference, incident, points, tags,
                 spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
                 out_depths, out_features, c,
             )  # fmt: skip
@@ -445,9 +449,13 @@ def convex_contacts_for_pairs(
         wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
         wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
         wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
+        # every contact of the pair carries the pair's penetration depth, as the mesh path's
+        # contacts carry their region's: a resting face whose corners straddle the slop by
+        # round-off tilt is then seated or lifted as a whole, not rocked corner by corner
         for r in range(c, c + count):
             body_a[r], body_b[r] = i, j
             out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz
+            out_depths[r] = -separation
         c += count
 
     order = np.argsort(new_keys)
