@@ -204,7 +204,16 @@ def best_four_area(points, normal, include=None):
     that include one of the indices ``include`` if given."""
     if len(points) <= 4:
         return polygon_area(points, normal)
-    subsets = combinations(range(len(points)), 4)
+    u, v = _plane_basis(normal / np.linalg.norm(normal))
+    p2 = np.stack([points @ u, points @ v], axis=1)
+    order = ConvexHull(p2).vertices  # corners in loop order: a subset in order is convex
+    subsets = np.array(list(combinations(order.tolist(), 4)))
+    # four corners taken in loop order form a convex quadrilateral: shoelace area
+    position = {int(c): k for k, c in enumerate(order)}
+    ranks = np.vectorize(position.get)(subsets)
+    subsets = np.take_along_axis(subsets, np.argsort(ranks, axis=1), axis=1)
+    x, y = p2[subsets, 0], p2[subsets, 1]
+    area = 0.5 * np.abs((x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1))
     if include is not None:
-        subsets = [c for c in subsets if set(c) & set(include)]
-    return max(polygon_area(points[list(c)], normal) for c in subsets)
+        area = area[np.isin(subsets, list(include)).any(axis=1)]
+    return float(area.max())

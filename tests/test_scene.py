@@ -138,7 +138,7 @@ def test_contact_settings_reach_the_world(tmp_path):
         rbd.load_scene(bad)
     with pytest.raises(SceneError, match=r"overrides: .*magic"):
         rbd.load_scene(path).with_world(contact_solver="magic")
-    with pytest.raises(SceneError, match=r"\[world\]: unknown narrow_phase 'convex'"):
+    with pytest.raises(SceneError, match=r"overrides: unknown narrow_phase 'convex'"):
         rbd.load_scene(path).with_world(narrow_phase="convex")
 
 

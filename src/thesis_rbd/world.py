@@ -417,7 +417,8 @@ class World:
         return self._awake and len(self._collision.candidate_pairs) > 0
 
     def _stage_narrow_phase(self) -> None:
-        """OBBTree contacts of the candidate pairs; a touched sleeping island wakes."""
+        """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
+        the OBBTree); a touched sleeping island wakes."""
         self._collision.narrow_phase(self.bodies)
         if self._sleep.any_asleep and self._sleep.wake_touched(
             self._collision.contacts, self.bodies.static
@@ -467,7 +468,9 @@ class World:
         """Contacts of the last step, world frame.
 
         Keys: ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3), normals from
-        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b];
+        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b]
+        (-1 for convex pairs); ``features`` (c,) int64 feature ids of convex pairs' contacts,
+        the same from step to step while their features are (-1 for mesh pairs);
         ``impulses`` (c, 3) (normal, t1, t2) applied by the contact stage. With a response,
         these are the contacts the impulses acted at (for an impact, those at the time of
         impact); in a detection-only world, the narrow phase's contacts with zero impulses.

@@ -34,7 +34,6 @@ from thesis_rbd.spatial.quaternion import to_matrix_into
 __all__ = [
     "CACHE_AXIS",
     "SAT_EDGE_PAIRS",
-    "any_convex_intersection",
     "convex_contacts_for_pairs",
     "empty_cache",
     "feature_id",
@@ -42,7 +41,8 @@ __all__ = [
 ]
 
 # Pairs whose edge counts multiply to at most this go through the separating-axis test,
-# larger ones through GJK and EPA (measured crossover: validation/bench_convex.py).
+# larger ones through GJK and EPA: the SAT's cost grows with the product, GJK/EPA's hardly;
+# resting on a box, the SAT was the faster at 576 (a 16-sided cylinder) and GJK/EPA at 1152.
 SAT_EDGE_PAIRS = 600
 # Separations within this fraction of the hulls' sizes are ties (see ``sat_query``): a face
 # beats an edge pair that is deeper by less, which keeps whole-face manifolds for nearly
@@ -503,30 +503,3 @@ def _edge_contact(H, ha, hb, edge_a, edge_b, R, t, Ri, ti, out_points, c):
     x, y, z = edge_contact_point(vertices[a0], vertices[a1], pb, qb)
     for a in range(3):
         out_points[c, a] = Ri[a, 0] * x + Ri[a, 1] * y + Ri[a, 2] * z + ti[a]
-
-
-@njit
-def any_convex_intersection(
-    pairs, hull_of_body, hull_arrays, position, orientation, center_of_mass_local
-):
-    """True if any of the convex body ``pairs`` (p, 2) overlaps (touching counts).
-
-    The yes/no query of time-of-impact searches; the same axis test as
-    ``convex_contacts_for_pairs`` decides, so the two agree.
-    """
-    H = hull_arrays
-    scratch = _query_scratch(H)
-    Ra, ta = np.empty((3, 3)), np.empty(3)
-    Rb, tb = np.empty((3, 3)), np.empty(3)
-    R, t = np.empty((3, 3)), np.empty(3)
-    for q in range(pairs.shape[0]):
-        i, j = pairs[q, 0], pairs[q, 1]
-        _mesh_frame(i, position, orientation, center_of_mass_local, Ra, ta)
-        _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
-        _relative_frame(Ra, ta, Rb, tb, R, t)
-        result = _pair_query(
-            H, hull_of_body[i], hull_of_body[j], R, t, 0, 0, 0, 0.0, 0.0, 0.0, scratch
-        )
-        if result[3] <= 0.0:
-            return True
-    return False

@@ -285,6 +285,7 @@ class HullSet:
         self.tolerance = tolerance
         self.hulls: list[ConvexHull] = []
         self._index: dict[int, int] = {}
+        self._meshes: list = []  # held, so that no other mesh can take a known one's id
         self._pack()
 
     def hull_of(self, mesh) -> int:
@@ -294,6 +295,7 @@ class HullSet:
         """
         key = id(mesh)
         if key not in self._index:
+            self._meshes.append(mesh)
             if is_convex(mesh, self.tolerance):
                 self._index[key] = len(self.hulls)
                 self.hulls.append(convex_hull(mesh))

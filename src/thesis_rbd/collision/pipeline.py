@@ -21,11 +21,7 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
-from thesis_rbd.collision.convex_contacts import (
-    any_convex_intersection,
-    convex_contacts_for_pairs,
-    empty_cache,
-)
+from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
@@ -293,8 +289,17 @@ class CollisionPipeline:
             bodies.full("center_of_mass_local"),
         )
         convex = self._convex_pairs(pairs)
-        if convex.any() and any_convex_intersection(
-            np.ascontiguousarray(pairs[convex]), self.hull_of_body, self.hulls.arrays(), *state
+        # the contact kernel decides, so this answer and contacts_of agree; tunnelling and
+        # time-of-impact searches ask about a few pairs only
+        if convex.any() and len(
+            convex_contacts_for_pairs(
+                np.ascontiguousarray(pairs[convex]),
+                self.hull_of_body,
+                self.hulls.arrays(),
+                self.hulls.longest_loop,
+                *state,
+                *self.convex_cache,
+            )[4]
         ):
             return True
         if convex.all():
