@@ -89,17 +89,21 @@ def test_narrow_phase_per_pair(benchmark, path, shape):
 
 
 def per_pair_costs(blocks: int = 7, calls: int = 5) -> dict[str, float]:
-    """Median per-pair cost (us) of each (shape, path), blocks of calls interleaved."""
+    """Median per-pair cost (us) of each (shape, path), blocks of calls interleaved.
+
+    Timed in thread CPU time, which a machine shared with other work disturbs less than
+    wall time.
+    """
     results: dict[str, list[float]] = {}
     scenes = {shape: RestingPairs(shape) for shape in SHAPES}
     for _ in range(blocks):
         for shape, scene in scenes.items():
             for path in ("convex", "mesh"):
                 run = getattr(scene, path)
-                start = time.perf_counter()
+                start = time.thread_time()
                 for _ in range(calls):
                     run()
-                seconds = (time.perf_counter() - start) / calls
+                seconds = (time.thread_time() - start) / calls
                 results.setdefault(f"{shape}-floor {path}", []).append(1e6 * seconds / COUNT)
     return {key: float(np.median(values)) for key, values in results.items()}
 

@@ -3,12 +3,17 @@
 Per pair, in A's hull frame (B placed there by the relative transform): the axis of least
 penetration, from the separating-axis test (``convex_sat.py``) for hulls with few edges or
 GJK and EPA (``convex_gjk.py``) for hulls with many; then the manifold (``convex_manifold.py``):
-clipped incident face and four corners for a face axis, one point for an edge pair.
+clipped incident face and four corners for a face axis, one point for an edge pair (unless
+the edge axis lies within 0.01 rad of a face beside the edges: a face hanging over another's
+edge, nearly flat, then gets that face's manifold at the edge axis' exact normal and depth).
+Contact points lie midway between the two surfaces; every contact of a pair reports the
+pair's penetration depth, as the mesh path's contacts report their region's.
 
 Frame-to-frame coherence: a cache keyed by body pair remembers the axis that separated the
 pair or gave its contact last time, as features (a face of A, a face of B, an edge pair) and
-as a direction; it is tested first, and usually separates again. The caller owns the cache
-and passes it in; the kernel returns the new one (one row per pair it was given).
+as a direction; the separating-axis test tries the feature first and GJK starts from the
+direction, and either usually separates again at once. The caller owns the cache and passes
+it in; the kernel returns the new one (one row per pair it was given).
 
 Each contact carries a feature id (int64) that stays the same while its features do: the
 kind of contact, the reference and incident faces (or the two edges) and the corner's clip

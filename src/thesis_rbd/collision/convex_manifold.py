@@ -3,8 +3,10 @@
 For a face contact the reference face is the face whose normal is the contact axis; the
 incident face is the other hull's face most opposed to it. The incident polygon is clipped
 (Sutherland-Hodgman) against the side planes of the reference face, one per reference edge,
-and against the reference plane itself, which leaves the part of the incident face that lies
-over the reference face and below its plane: the contact polygon. Each of its corners is an
+and, if the two faces are within 0.01 rad of parallel, against the reference plane itself,
+which leaves the part of the incident face that lies over the reference face and below its
+plane: the contact polygon. A tilted incident face keeps only its corners below the plane
+(a vertex pressed into a face is one contact, at the vertex). Each of its corners is an
 incident vertex or the crossing of an incident edge (or an earlier clip line) with a clip
 plane, and is tagged so: the tag, with the two faces, names the corner's features, and stays
 the same from step to step while they do.
@@ -13,7 +15,8 @@ Of more than four corners, four are kept: the deepest one, and the three that wi
 the largest area (exact, by dynamic programming over the fan from the deepest corner: the
 quadrilateral's area is two fan triangles sharing a middle corner). Depth matters for the
 penetration, area for a stable support. Corners tied for deepest (faces pressed flat on each
-other) are each tried as the deepest, and the largest area wins.
+other, to a tolerance the caller gives) are each tried as the deepest, and the largest area
+wins.
 
 An edge-edge contact is one point, midway between the closest points of the two edges.
 """
