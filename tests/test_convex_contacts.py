@@ -261,8 +261,15 @@ def test_convex_path_agrees_with_the_mesh_path(pair):
     ours, _ = pair.contacts()
     assert len(depths) and len(ours["depths"])
     deepest = int(np.argmax(depths))
-    assert abs(depths[deepest] - ours["depths"].max()) <= 1e-9 * pair.size
-    assert math.acos(min(1.0, float(normals[deepest] @ ours["normals"][0]))) <= 1e-6
+    # ours is exact; the mesh path judges large regions by their face normals alone, so it
+    # may miss an edge axis that is a hair shallower: it is never closer to the oracle
+    ours_error = abs(ours["depths"].max() - depth)
+    mesh_error = abs(depths[deepest] - depth)
+    assert ours_error <= 1e-9 * pair.size
+    assert ours_error <= mesh_error + 1e-12 * pair.size
+    if mesh_error <= 1e-9 * pair.size:
+        assert abs(depths[deepest] - ours["depths"].max()) <= 2e-9 * pair.size
+        assert math.acos(min(1.0, float(normals[deepest] @ ours["normals"][0]))) <= 1e-6
 
 
 @settings(max_examples=30, suppress_health_check=[HealthCheck.filter_too_much])
