@@ -2,8 +2,12 @@
 
 Resting and landing bodies are judged as the stability suite judges them (validation/studies/
 stability_suite.py): over the whole run, not at its end, with drift and penetration bounded by
-1 % of the body's size or of the thinner body's thickness (``TOLERANCE``).
+1 % of the body's size or of the thinner body's thickness (``TOLERANCE``). Every test runs under
+both narrow phases: "auto" (convex pairs as convex polyhedra) and "mesh" (the OBBTree for every
+pair).
 """
+
+import functools
 
 import numpy as np
 import pytest
@@ -17,6 +21,13 @@ FLOOR = rbd.shapes.box((4.0, 4.0, 1.0))
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))
 BALL = rbd.shapes.icosphere(0.5, 3)
 TOLERANCE = 0.01  # the stability suite's fraction of a body's size or thickness
+
+
+@pytest.fixture(autouse=True, params=["auto", "mesh"])
+def narrow_phase(request, monkeypatch):
+    """rbd.World with the narrow phase of this run."""
+    monkeypatch.setattr(rbd, "World", functools.partial(rbd.World, narrow_phase=request.param))
+    return request.param
 
 
 def floor_world(**options):

@@ -72,8 +72,9 @@ def placed_pair(seed, kind_a, kind_b, depth_fraction):
 
 
 def manifold(pair):
-    """The narrow phase's contacts of the pair, normals from B towards A."""
-    world = rbd.World(contact_response=False)
+    """The mesh path's contacts of the pair (manifold.py; the convex path has its own oracle
+    tests in test_convex_contacts.py), normals from B towards A."""
+    world = rbd.World(contact_response=False, narrow_phase="mesh")
     for mesh, position, orientation in zip(
         pair["meshes"], pair["positions"], pair["orientations"], strict=True
     ):

@@ -123,10 +123,12 @@ def test_contact_settings_reach_the_world(tmp_path):
         friction_sides = 4
         penetration = "bias"
         sleeping = false
+        narrow_phase = "mesh"
         """,
     )
     world = rbd.load_scene(path).build()
     assert world.contact_response is False
+    assert world.narrow_phase == "mesh"
     settings = world.contact_settings
     assert (settings.solver, settings.iterations, settings.friction_sides) == ("exact", 12, 4)
     assert settings.penetration == "bias"
@@ -140,6 +142,8 @@ def test_contact_settings_reach_the_world(tmp_path):
     old = write_scene(tmp_path, "[world]\nslop = 0.001\n", name="old.toml")
     with pytest.raises(SceneError, match=r"slop.*relative"):
         rbd.load_scene(old)
+    with pytest.raises(SceneError, match=r"overrides: unknown narrow_phase 'convex'"):
+        rbd.load_scene(path).with_world(narrow_phase="convex")
 
 
 def test_defaults_are_the_world_defaults(tmp_path):

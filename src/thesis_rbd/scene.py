@@ -144,7 +144,8 @@ class Scene:
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
-        contact_solver, contact_iterations, friction_sides, penetration, sleeping.
+        contact_solver, contact_iterations, friction_sides, penetration, sleeping,
+        narrow_phase.
     bodies : tuple of BodySpec
         In world index order.
     source : str
@@ -299,6 +300,7 @@ _WORLD_KEYS = (
     "friction_sides",
     "penetration",
     "sleeping",
+    "narrow_phase",
 )
 # keys of earlier versions, refused with the reason
 _REMOVED_WORLD_KEYS = {
@@ -314,6 +316,7 @@ _CONTACT_CHECKS = {
     "friction_sides": lambda v, w: _integer(v, w),
     "penetration": lambda v, w: _as_string(v, w),
     "sleeping": lambda v, w: _as_bool(v, w),
+    "narrow_phase": lambda v, w: _as_string(v, w),
 }
 
 

@@ -136,6 +136,9 @@ class World:
         where they ended and push them out through the contact velocities.
     sleeping : bool
         Let islands at rest fall asleep (frozen, free of cost) until touched or pushed.
+    narrow_phase : {"auto", "mesh"}
+        "auto": pairs of convex bodies collide as convex polyhedra (separating axes, GJK and
+        EPA), the others through the OBBTree; "mesh": the OBBTree for every pair.
     """
 
     def __init__(
@@ -152,6 +155,7 @@ class World:
         friction_sides: int = 8,
         penetration: str = "toi",
         sleeping: bool = True,
+        narrow_phase: str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
@@ -174,7 +178,8 @@ class World:
             friction_sides=friction_sides,
             penetration=penetration,
         )
-        self._collision = CollisionPipeline()
+        self._collision = CollisionPipeline(narrow_phase)
+        self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._warm_start = WarmStart()
         self.contact_info: dict = {}
@@ -489,7 +494,8 @@ class World:
         return self._awake and len(self._candidates) > 0
 
     def _stage_narrow_phase(self) -> None:
-        """Contacts of the candidate pairs; a touched sleeping island wakes."""
+        """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
+        the OBBTree); a touched sleeping island wakes."""
         self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
         if self._sleep.any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
             self._sleep_changed()
@@ -578,12 +584,13 @@ class World:
         """Contacts of the last step, world frame.
 
         Keys: ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3), normals from
-        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b];
-        ``features`` (c,) int64 (-1 where the narrow phase names none); ``impulses`` (c, 3)
-        (normal, t1, t2). With a response, these are the contacts the step's impulses acted
-        at: those found where the bodies were at the start of the step, and those of
-        collisions at their time of impact. In a detection-only world, the contacts the
-        narrow phase found at the end of the step, with zero impulses.
+        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b]
+        (-1 for convex pairs); ``features`` (c,) int64 feature ids of convex pairs' contacts,
+        the same from step to step while their features are (-1 for mesh pairs);
+        ``impulses`` (c, 3) (normal, t1, t2). With a response, these are the contacts the
+        step's impulses acted at: those found where the bodies were at the start of the step,
+        and those of collisions at their time of impact. In a detection-only world, the
+        contacts the narrow phase found at the end of the step, with zero impulses.
         """
         if self.contact_response:
             source = self._acted

@@ -23,10 +23,16 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
+from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
+from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
 
-__all__ = ["CollisionPipeline", "empty_contacts"]
+__all__ = ["NARROW_PHASES", "CollisionPipeline", "empty_contacts"]
+
+# "auto": pairs of convex bodies by convex-polyhedron contact, the others by the OBBTree;
+# "mesh": the OBBTree for every pair
+NARROW_PHASES = ("auto", "mesh")
 
 _NO_BODIES = np.zeros(0, np.int64)
 _NO_PAIRS = np.zeros((0, 2), np.int64)
@@ -55,6 +61,13 @@ class CollisionPipeline:
         The distinct meshes' trees.
     geometry_of_body : (n,) int64
         Tree index of each body.
+    hulls : HullSet
+        The convex hulls of the convex meshes (narrow phase "auto").
+    hull_of_body : (n,) int64
+        Hull index of each body, -1 for a body that collides as a mesh.
+    convex_cache : tuple of arrays
+        Coherence cache of the convex pairs (``convex_contacts.empty_cache``), from the last
+        ``narrow_phase`` stage.
     box_offset, box_half : (n, 3) float64
         Mesh-frame box of each body: centre offset from the centre of mass, half-extents.
     fat : (2, n, 3) float64
@@ -71,9 +84,17 @@ class CollisionPipeline:
         Counters of the last stage calls (candidate_pairs, bv_tests, tri_tests, contacts).
     """
 
-    def __init__(self):
+    def __init__(self, narrow_phase: str = "auto"):
+        if narrow_phase not in NARROW_PHASES:
+            raise ValueError(
+                f"unknown narrow_phase {narrow_phase!r}; choose one of {list(NARROW_PHASES)}"
+            )
+        self.narrow_phase_kind = narrow_phase
         self.geometry = GeometrySet()
         self.geometry_of_body = np.zeros(0, np.int64)
+        self.hulls = HullSet()
+        self.hull_of_body = np.zeros(0, np.int64)
+        self.convex_cache = empty_cache()
         self.box_offset = np.zeros((0, 3))
         self.box_half = np.zeros((0, 3))
         self.sap = SweepAndPrune()
@@ -96,6 +117,8 @@ class CollisionPipeline:
         """
         g = self.geometry.geometry_of(mesh)
         self.geometry_of_body = np.append(self.geometry_of_body, g)
+        hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
+        self.hull_of_body = np.append(self.hull_of_body, hull)
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
         lower, upper = self.geometry.local_lower[g], self.geometry.local_upper[g]
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
@@ -261,43 +284,91 @@ class CollisionPipeline:
         )  # fmt: skip
 
     def narrow_phase(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
-        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``)."""
-        return self.contacts_of(bodies, pairs)
+        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``);
+        the convex pairs' coherence cache is kept for the next step."""
+        return self._contacts(bodies, pairs, keep_cache=True)
+
+    def _convex_pairs(self, pairs: np.ndarray) -> np.ndarray:
+        """(p,) bool: the pairs of two convex bodies."""
+        hull = self.hull_of_body
+        return (hull[pairs[:, 0]] >= 0) & (hull[pairs[:, 1]] >= 0)
 
     def intersects(self, bodies, pairs: np.ndarray) -> bool:
         """Whether any of the body ``pairs`` (p, 2) intersects in the current state."""
+        state = (
+            bodies.full("position"),
+            bodies.full("orientation"),
+            bodies.full("center_of_mass_local"),
+        )
+        convex = self._convex_pairs(pairs)
+        # the contact kernel decides, so this answer and contacts_of agree; tunnelling and
+        # time-of-impact searches ask about a few pairs only
+        if convex.any() and len(
+            convex_contacts_for_pairs(
+                np.ascontiguousarray(pairs[convex]),
+                self.hull_of_body,
+                self.hulls.arrays(),
+                self.hulls.longest_loop,
+                *state,
+                *self.convex_cache,
+            )[4]
+        ):
+            return True
+        if convex.all():
+            return False
         return bool(
             any_intersection(
-                pairs,
+                np.ascontiguousarray(pairs[~convex]),
                 self.geometry_of_body,
                 self.geometry.arrays(),
-                bodies.full("position"),
-                bodies.full("orientation"),
-                bodies.full("center_of_mass_local"),
+                *state,
             )
         )
 
     def contacts_of(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
         """Contacts of the body ``pairs`` (p, 2) in the current state (see ``empty_contacts``)."""
-        body_a, body_b, points, normals, depths, faces, stats = contacts_for_pairs(
-            pairs,
-            self.geometry_of_body,
-            self.geometry.arrays(),
+        return self._contacts(bodies, pairs, keep_cache=False)
+
+    def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> dict[str, np.ndarray]:
+        """Contacts of ``pairs``: convex pairs by the convex kernel, the others by the
+        OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step."""
+        keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
+        state = (
             bodies.full("position"),
             bodies.full("orientation"),
             bodies.full("center_of_mass_local"),
         )
-        self.stats.update(
-            bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2]),
-            contacts=len(depths),
-        )  # fmt: skip
-        return {
-            "body_a": body_a,
-            "body_b": body_b,
-            "points": points,
-            "normals": normals,
-            "depths": depths,
-            "faces": faces,
-            # the mesh path names no features: warm starts match its contacts by place
-            "features": np.full(len(depths), -1, np.int64),
-        }
+        convex = self._convex_pairs(pairs)
+        parts = []
+        if not convex.all():
+            *mesh, stats = contacts_for_pairs(
+                np.ascontiguousarray(pairs[~convex]),
+                self.geometry_of_body,
+                self.geometry.arrays(),
+                *state,
+            )
+            self.stats.update(
+                bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2])
+            )
+            parts.append(
+                dict(zip(keys, [*mesh, np.full(len(mesh[4]), -1, np.int64)], strict=False))
+            )
+        if convex.any():
+            *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
+                np.ascontiguousarray(pairs[convex]),
+                self.hull_of_body,
+                self.hulls.arrays(),
+                self.hulls.longest_loop,
+                *state,
+                *self.convex_cache,
+            )
+            if keep_cache:
+                self.convex_cache = (cache_keys, cache_features, cache_axes)
+            parts.append(dict(zip(keys, found, strict=True)))
+        self.stats.update(convex_pairs=int(convex.sum()))
+        if len(parts) == 1:
+            contacts = parts[0]
+        else:
+            contacts = {key: np.concatenate([part[key] for part in parts]) for key in keys}
+        self.stats["contacts"] = len(contacts["depths"])
+        return contacts
