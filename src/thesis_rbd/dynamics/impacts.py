@@ -189,7 +189,8 @@ def resolve_impacts(
         threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
         if u < -threshold:
             bounce[k] = restitution[a] * restitution[b]
-        bias[k] = 0.0
+        # a contact not touching yet takes no part in the collision
+        bias[k] = 0.0 if depths[sel[k]] >= 0.0 else np.inf
         mu[k] = math.sqrt(friction[a] * friction[b])
     for k in range(kept):
         tolerance[k] = IMPACT_TOLERANCE * fastest
@@ -209,8 +210,8 @@ def resolve_impacts(
                 v[i, a] += t * acceleration[i, a]
                 w[i, a] += t * alpha[i, a]
     for k in range(kept):
-        depth = depths[sel[k]]
-        bias[k] = settings[cs.BIAS_RATE] * max(slop[k] - depth, 0.0) / dt
+        # hold touching contacts; one not touching yet may close its gap
+        bias[k] = max(-depths[sel[k]], 0.0) / dt
         bounce[k] = 0.0
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
     rest = np.zeros((kept, 3))
