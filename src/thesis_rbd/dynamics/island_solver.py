@@ -50,8 +50,9 @@ def solve_islands(
     rows : tuple
         ``pgs.build_rows`` of those contacts.
     bias, bounce, friction, tolerance : (c,) float64
-        Normal bias (u_n + bias >= 0), restitution of the contacts that bounce (0 for the
-        others), friction coefficient, velocity tolerance of PGS (m/s).
+        Normal bias (u_n + bias >= 0; +inf for a contact that takes no part), restitution of
+        the contacts that bounce (0 for the others), friction coefficient, velocity tolerance
+        of PGS (m/s).
     inverse_mass : (n,) float64
         Zero for bodies that must not move.
     inverse_inertia : (n, 3, 3) float64
@@ -94,11 +95,23 @@ def solve_islands(
                     for a in range(3):
                         v[i, a] = v_start[i, a]
                         w[i, a] = w_start[i, a]
-            frame = (body_a[s:e], body_b[s:e], arm_a[s:e], arm_b[s:e], basis[s:e])
-            status = solve_exact(
-                sides, frame, bias[s:e], friction[s:e], (v, w, inverse_mass, inverse_inertia),
-                impulse[s:e], velocity_scale,
+            # contacts with an infinite bias can never bind: they stay out of the LCP
+            taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
+            for k in range(s, e):
+                for d in range(3):
+                    impulse[k, d] = 0.0
+            frame = (
+                body_a[taking_part], body_b[taking_part], arm_a[taking_part],
+                arm_b[taking_part], basis[taking_part],
             )  # fmt: skip
+            answer = np.zeros((taking_part.shape[0], 3))
+            status = solve_exact(
+                sides, frame, bias[taking_part], friction[taking_part],
+                (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
+            )  # fmt: skip
+            for idx in range(taking_part.shape[0]):
+                for d in range(3):
+                    impulse[taking_part[idx], d] = answer[idx, d]
             stats[3] += 1
             stats[4] += status != 0
 
