@@ -47,7 +47,7 @@ from thesis_rbd.dynamics.contact_kinematics import (
 from thesis_rbd.dynamics.contact_solver import contact_basis
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import correct_positions, solve_islands
-from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.dynamics.islands import find_islands, order_from_the_top
 from thesis_rbd.dynamics.pgs import build_rows
 from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses, pair_keys
 from thesis_rbd.spatial.quaternion import to_matrix_into
@@ -139,6 +139,7 @@ def solve_contacts(
 
     # islands; contacts re-ordered so that each island is one slice
     _, order, island_start = find_islands(n, body_a, body_b, static)
+    order = order_from_the_top(n, body_a, body_b, static, order, island_start)
     stats[0] = island_start.shape[0] - 1
     sa = body_a[order]
     sb = body_b[order]
