@@ -48,7 +48,7 @@ from thesis_rbd.dynamics.forces import (
     PointForces,
     world_arm_to_body,
 )
-from thesis_rbd.dynamics.impacts import find_hits, resolve_impacts
+from thesis_rbd.dynamics.impacts import any_free_body, find_hits, resolve_impacts
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
 from thesis_rbd.dynamics.pgs import friction_polygon
 from thesis_rbd.dynamics.resting_contact import STATS, solve_contacts
@@ -182,7 +182,8 @@ class World:
         self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._warm_start = WarmStart()
-        self.contact_info: dict = {}
+        self._contact_stats = np.zeros(len(STATS), np.int64)
+        self._impact_count = 0
         # what the stages hand each other (see the module docstring)
         self._contacts = empty_contacts()  # at the bodies' current positions
         self._acted = _NO_CONTACT_ACTED  # what this step's impulses acted at
@@ -326,7 +327,7 @@ class World:
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
             pipeline.append(("tunnelling", self._stage_tunnelling, self._has_fast_bodies))
         if responds and self.contact_settings.penetration == "toi":
-            pipeline.append(("time_of_impact", self._stage_time_of_impact, self._has_contacts))
+            pipeline.append(("time_of_impact", self._stage_time_of_impact, self._may_have_hit))
             pipeline.append(("impacts", self._stage_impacts, self._has_rewound))
         if collides and self._sleep.settings.enabled:
             # bodies come to rest through contact: without collisions nothing would sleep
@@ -341,6 +342,18 @@ class World:
         self._solved = np.zeros(n, bool)
         self._fast = np.zeros(n, bool)
         self._rewind = np.zeros(n)
+        # the kernels' body arguments, looked up once per plan (arrays change only on add_body)
+        full = b.full
+        self._state = tuple(
+            full(f) for f in ("position", "orientation", "linear_momentum", "angular_momentum")
+        )
+        self._constants = tuple(
+            full(f)
+            for f in (
+                "inverse_mass", "inverse_inertia_body", "inertia_body", "thickness",
+                "restitution", "friction",
+            )
+        )  # fmt: skip
         self._settings = self.contact_settings.as_array(self.dt)
         self._polygon = friction_polygon(self.contact_settings.friction_sides)
         self._sleep_changed()
@@ -399,7 +412,13 @@ class World:
     def _save(self) -> None:
         """Keep what a failed step must put back: the body state and the stage hand-overs."""
         self.bodies.save_state()
-        self._saved = (self._contacts, self._acted, dataclasses.replace(self.applied_forces))
+        forces = self.applied_forces
+        # applied forces change only while some are active (their durations run down)
+        self._saved = (
+            self._contacts,
+            self._acted,
+            dataclasses.replace(forces) if len(forces) else forces,
+        )
         self._acted = _NO_CONTACT_ACTED
         self._solved[:] = False
         self._rewound = False
@@ -440,21 +459,17 @@ class World:
         b, c, pf = self.bodies, self._contacts, self._point_forces
         impulses = np.empty((len(c["depths"]), 3))
         warm = self._warm_start
-        stats, state = solve_contacts(
+        stats = self._contact_stats
+        warm.keys, warm.values = solve_contacts(
             self._settings, self._polygon, b.count, self._frozen,
             c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"], c["features"],
-            b.full("position"), b.full("orientation"), b.full("linear_momentum"),
-            b.full("angular_momentum"), b.full("inverse_mass"), b.full("inverse_inertia_body"),
-            b.full("inertia_body"), b.full("thickness"), b.full("restitution"),
-            b.full("friction"), self._external_force, self._drag_array, pf.start, pf.arm,
-            pf.force, warm.keys, warm.features, warm.local_points, warm.impulses,
-            impulses, self._solved,
+            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
+            pf.arm, pf.force, warm.keys, warm.values, impulses, self._solved, stats,
         )  # fmt: skip
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))
-        warm.replace(*state)
         self._acted = dict(c, impulses=impulses)
-        self.contact_info = dict(zip(STATS[:5], stats[:5].tolist(), strict=True), impacts=0)
+        self._impact_count = 0
 
     def _stage_integrate(self) -> None:
         """Move every awake body: those the contact stage acted on with their new velocities,
@@ -463,8 +478,7 @@ class World:
         pf = self._point_forces
         bad = integrate_bodies(
             INTEGRATORS[self.integrator], self.dt, b.count, self._frozen, self._solved,
-            b.full("position"), b.full("orientation"), b.full("linear_momentum"),
-            b.full("angular_momentum"), b.full("inverse_mass"), b.full("inverse_inertia_body"),
+            *self._state, *self._constants[:2],
             self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
             # where the step started: fast bodies are swept from here (no tunnelling)
             self._collision_planned, self._start_position, self._start_orientation,
@@ -513,6 +527,14 @@ class World:
             self._start_orientation,
         )  # fmt: skip
 
+    def _may_have_hit(self) -> bool:
+        """Whether a contact has a body that flew freely this step (neither resting nor
+        moved by the contact stage): only such a body can have run into something."""
+        if not self._has_contacts():
+            return False
+        c = self._contacts
+        return any_free_body(c["body_a"], c["body_b"], self._frozen, self._solved)
+
     def _stage_time_of_impact(self) -> None:
         """Bodies in free flight that ran into something go back to when they touched."""
         b, c = self.bodies, self._contacts
@@ -520,8 +542,7 @@ class World:
         movers = ~(self._frozen | self._solved[:n])
         hits, v, w = find_hits(
             n, self._frozen, movers, c["body_a"], c["body_b"], c["points"], c["normals"],
-            c["depths"], b.full("position"), b.full("orientation"), b.full("linear_momentum"),
-            b.full("angular_momentum"), b.full("inverse_mass"), b.full("inverse_inertia_body"),
+            c["depths"], *self._state, *self._constants[:2],
         )  # fmt: skip
         if not hits.any():
             return
@@ -544,11 +565,8 @@ class World:
         stats, resolved = resolve_impacts(
             self._settings, self._polygon, b.count, self._frozen, self._rewind,
             c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"],
-            b.full("position"), b.full("orientation"), b.full("linear_momentum"),
-            b.full("angular_momentum"), b.full("inverse_mass"), b.full("inverse_inertia_body"),
-            b.full("inertia_body"), b.full("thickness"), b.full("restitution"),
-            b.full("friction"), self._external_force, self._drag_array, pf.start, pf.arm,
-            pf.force, impulses,
+            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
+            pf.arm, pf.force, impulses,
         )  # fmt: skip
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))
@@ -556,7 +574,7 @@ class World:
         hit = {key: value[resolved] for key, value in c.items()}
         hit["impulses"] = impulses[resolved]
         self._acted = {key: np.concatenate([self._acted[key], hit[key]]) for key in hit}
-        self.contact_info["impacts"] = int(stats[0])
+        self._impact_count = int(stats[0])
 
     def _sleep_due(self) -> bool:
         return self._awake and self._sleep.update_due(self._slowest, self._has_contacts())
@@ -573,6 +591,16 @@ class World:
             c = self._contacts
             active = ~(self._frozen[c["body_a"]] & self._frozen[c["body_b"]])
             self._contacts = {key: value[active] for key, value in c.items()}
+
+    @property
+    def contact_info(self) -> dict:
+        """What the last contact stage did: ``islands``, PGS ``sweeps`` (in all) and
+        ``max_sweeps`` (of one island), ``exact_islands`` solved by Lemke's method,
+        ``unconverged`` islands (PGS at its sweep limit, or an exact solve that fell back),
+        and ``impacts``, islands resolved at their time of impact in the last step."""
+        info = dict(zip(STATS[:5], self._contact_stats[:5].tolist(), strict=True))
+        info["impacts"] = self._impact_count
+        return info
 
     @property
     def sleeping(self) -> np.ndarray:

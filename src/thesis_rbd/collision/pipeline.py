@@ -34,6 +34,7 @@ __all__ = ["NARROW_PHASES", "CollisionPipeline", "empty_contacts"]
 # "mesh": the OBBTree for every pair
 NARROW_PHASES = ("auto", "mesh")
 
+_CONTACT_KEYS = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
 _NO_BODIES = np.zeros(0, np.int64)
 _NO_PAIRS = np.zeros((0, 2), np.int64)
 _NO_BODIES.flags.writeable = _NO_PAIRS.flags.writeable = False
@@ -95,6 +96,8 @@ class CollisionPipeline:
         self.hulls = HullSet()
         self.hull_of_body = np.zeros(0, np.int64)
         self.convex_cache = empty_cache()
+        self._hull_arrays = self.hulls.arrays()
+        self._every_body_convex = self._any_body_convex = False
         self.box_offset = np.zeros((0, 3))
         self.box_half = np.zeros((0, 3))
         self.sap = SweepAndPrune()
@@ -119,6 +122,9 @@ class CollisionPipeline:
         self.geometry_of_body = np.append(self.geometry_of_body, g)
         hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
         self.hull_of_body = np.append(self.hull_of_body, hull)
+        self._hull_arrays = self.hulls.arrays()
+        self._every_body_convex = bool(np.all(self.hull_of_body >= 0))
+        self._any_body_convex = bool(np.any(self.hull_of_body >= 0))
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
         lower, upper = self.geometry.local_lower[g], self.geometry.local_upper[g]
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
@@ -331,44 +337,42 @@ class CollisionPipeline:
 
     def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> dict[str, np.ndarray]:
         """Contacts of ``pairs``: convex pairs by the convex kernel, the others by the
-        OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step."""
-        keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
+        OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step.
+        A scene whose bodies are all convex (or none) makes one kernel call and nothing else."""
         state = (
             bodies.full("position"),
             bodies.full("orientation"),
             bodies.full("center_of_mass_local"),
         )
+        if self._every_body_convex:
+            return self._convex_contacts(pairs, state, keep_cache)
+        if not self._any_body_convex:
+            return self._mesh_contacts(pairs, state)
         convex = self._convex_pairs(pairs)
-        parts = []
-        if not convex.all():
-            *mesh, stats = contacts_for_pairs(
-                np.ascontiguousarray(pairs[~convex]),
-                self.geometry_of_body,
-                self.geometry.arrays(),
-                *state,
-            )
-            self.stats.update(
-                bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2])
-            )
-            parts.append(
-                dict(zip(keys, [*mesh, np.full(len(mesh[4]), -1, np.int64)], strict=False))
-            )
-        if convex.any():
-            *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
-                np.ascontiguousarray(pairs[convex]),
-                self.hull_of_body,
-                self.hulls.arrays(),
-                self.hulls.longest_loop,
-                *state,
-                *self.convex_cache,
-            )
-            if keep_cache:
-                self.convex_cache = (cache_keys, cache_features, cache_axes)
-            parts.append(dict(zip(keys, found, strict=True)))
-        self.stats.update(convex_pairs=int(convex.sum()))
-        if len(parts) == 1:
-            contacts = parts[0]
-        else:
-            contacts = {key: np.concatenate([part[key] for part in parts]) for key in keys}
-        self.stats["contacts"] = len(contacts["depths"])
+        parts = [
+            self._mesh_contacts(np.ascontiguousarray(pairs[~convex]), state),
+            self._convex_contacts(np.ascontiguousarray(pairs[convex]), state, keep_cache),
+        ]
+        return {key: np.concatenate([part[key] for part in parts]) for key in _CONTACT_KEYS}
+
+    def _mesh_contacts(self, pairs, state) -> dict[str, np.ndarray]:
+        """Contacts of mesh pairs by the OBBTree path (no feature ids)."""
+        *found, stats = contacts_for_pairs(
+            pairs, self.geometry_of_body, self.geometry.arrays(), *state
+        )
+        self.stats.update(
+            bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2])
+        )
+        contacts = dict(zip(_CONTACT_KEYS, found, strict=False))
+        contacts["features"] = np.full(len(found[4]), -1, np.int64)
         return contacts
+
+    def _convex_contacts(self, pairs, state, keep_cache: bool) -> dict[str, np.ndarray]:
+        """Contacts of convex pairs by the convex kernel, with its coherence cache."""
+        *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
+            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
+            *self.convex_cache,
+        )  # fmt: skip
+        if keep_cache:
+            self.convex_cache = (cache_keys, cache_features, cache_axes)
+        return dict(zip(_CONTACT_KEYS, found, strict=True))

@@ -108,7 +108,7 @@ class BodyArrays:
         }
         self.meshes: list = []
         self.names: list[str] = []
-        self._saved = [np.empty((0, 3))]
+        self._saved = (np.empty((0, 3)),)
 
     def __getattr__(self, name: str) -> np.ndarray:
         storage = self.__dict__.get("_storage")
@@ -118,16 +118,16 @@ class BodyArrays:
 
     def save_state(self) -> None:
         """Keep a copy of the state (x, q, P, L) that ``restore_state`` puts back."""
-        saved = self._saved
-        if saved[0].shape[0] != self.capacity:
-            saved = self._saved = [np.empty_like(self._storage[f]) for f in STATE_FIELDS]
-        st = self._storage
-        _copy_state(self.count, *(st[f] for f in STATE_FIELDS), *saved)
+        if self._saved[0].shape[0] != self.capacity:
+            state = tuple(self._storage[f] for f in STATE_FIELDS)
+            self._saved = tuple(np.empty_like(a) for a in state)
+            self._save_arguments = state + self._saved
+            self._restore_arguments = self._saved + state
+        _copy_state(self.count, *self._save_arguments)
 
     def restore_state(self) -> None:
         """Put back the state of the last ``save_state``."""
-        st = self._storage
-        _copy_state(self.count, *self._saved, *(st[f] for f in STATE_FIELDS))
+        _copy_state(self.count, *self._restore_arguments)
 
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""

@@ -34,9 +34,8 @@ def contact_tolerances(body_a, body_b, static, thickness, slop_fraction):
 
 
 @njit
-def _world_inverse_inertia(q, inverse_inertia_body, out):
-    """out = R I_body^-1 R^T for the unit quaternion q."""
-    R = np.empty((3, 3))
+def _world_inverse_inertia(q, inverse_inertia_body, R, out):
+    """out = R I_body^-1 R^T for the unit quaternion q (``R`` (3, 3) is scratch)."""
     to_matrix_into(q, R)
     for a in range(3):
         for b in range(3):
@@ -60,10 +59,11 @@ def body_velocities(count, static, orientation, linear_momentum, angular_momentu
     v = np.zeros((count, 3))
     w = np.zeros((count, 3))
     inverse_inertia = np.zeros((count, 3, 3))
+    R = np.empty((3, 3))
     for i in range(count):
         if static[i]:
             continue
-        _world_inverse_inertia(orientation[i], inverse_inertia_body[i], inverse_inertia[i])
+        _world_inverse_inertia(orientation[i], inverse_inertia_body[i], R, inverse_inertia[i])
         Ii = inverse_inertia[i]
         for a in range(3):
             v[i, a] = linear_momentum[i, a] * inverse_mass[i]

@@ -42,10 +42,20 @@ from thesis_rbd.dynamics.island_solver import solve_islands
 from thesis_rbd.dynamics.islands import find_islands
 from thesis_rbd.dynamics.pgs import build_rows
 
-__all__ = ["IMPACT_TOLERANCE", "find_hits", "resolve_impacts"]
+__all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
 
 # PGS velocity tolerance of a collision, relative to the island's fastest approach.
 IMPACT_TOLERANCE = 1e-6
+
+
+@njit
+def any_free_body(body_a, body_b, frozen, solved):
+    """Whether a contact has a body that is neither frozen nor moved by the contact stage."""
+    for k in range(body_a.shape[0]):
+        a, b = body_a[k], body_b[k]
+        if not (frozen[a] or solved[a]) or not (frozen[b] or solved[b]):
+            return True
+    return False
 
 
 @njit

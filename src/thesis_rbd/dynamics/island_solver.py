@@ -149,10 +149,12 @@ def correct_positions(
     -------
     sweeps : int
     """
+    c = body_a.shape[0]
+    if c == 0 or push.max() == -np.inf:
+        return 0  # nothing to push out: the common case of resting contact
     dt = settings[cs.DT]
     n = inverse_mass.shape[0]
     angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
-    c = body_a.shape[0]
     pseudo_v = np.zeros((n, 3))
     pseudo_w = np.zeros((n, 3))
     lam = np.zeros((c, 3))

@@ -133,14 +133,13 @@ def order_from_the_top(body_count, body_a, body_b, static, contact_order, island
                 level[j] = level[i] + 1
                 queue[tail] = j
                 tail += 1
+    # one stable sort by (island, level from the top): islands keep their slices
+    highest = 0
+    for i in range(body_count):
+        highest = max(highest, level[i])
     key = np.empty(c, np.int64)
-    for idx in range(c):
-        k = contact_order[idx]
-        key[idx] = -max(level[body_a[k]], level[body_b[k]])
-    out = contact_order.copy()
     for isl in range(island_start.shape[0] - 1):
-        s, e = island_start[isl], island_start[isl + 1]
-        local = np.argsort(key[s:e], kind="mergesort")
-        for m in range(e - s):
-            out[s + m] = contact_order[s + local[m]]
-    return out
+        for idx in range(island_start[isl], island_start[isl + 1]):
+            k = contact_order[idx]
+            key[idx] = isl * (highest + 1) + highest - max(level[body_a[k]], level[body_b[k]])
+    return contact_order[np.argsort(key, kind="mergesort")]

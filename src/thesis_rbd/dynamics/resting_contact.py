@@ -65,8 +65,7 @@ def solve_contacts(
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
-    old_keys, old_features, old_points, old_impulses,
-    impulse, solved,
+    old_keys, old_values, impulse, solved, stats,
 ):  # fmt: skip
     """Solve every island's contacts for this step and write the momenta of the bodies hit.
 
@@ -91,26 +90,28 @@ def solve_contacts(
         Body constants.
     external_force, drag, pf_start, pf_arm, pf_force
         The step's forces, as the integrator takes them.
-    old_keys, old_features, old_points, old_impulses
+    old_keys, old_values
         The previous step's contacts (``WarmStart``).
     impulse : (c, 3) float64
         Out: (lambda_n, lambda_t1, lambda_t2) of each contact in its (n, t1, t2) frame.
     solved : (>= n,) bool
         Out: True for the bodies an impulse acted on (they move with v+); others untouched.
+    stats : (6,) int64
+        Out: see ``STATS``; ``bad_body`` is the first body whose new state is not finite (-1
+        if none).
 
     Returns
     -------
-    stats : (6,) int64
-        See ``STATS``; ``bad_body`` is the first body whose new state is not finite (-1
-        if none).
-    warm : tuple
-        The new ``WarmStart`` arrays (keys, features, local points, impulses).
+    keys, values : (c, 2) int64, (c, 6) float64
+        The next step's ``WarmStart`` arrays. (Results are written into arrays the caller
+        passes wherever their size is known: each array a kernel returns costs a
+        microsecond of boxing, most of a small scene's budget.)
     """
     dt = settings[cs.DT]
     rate = settings[cs.BIAS_RATE]
     c = body_a.shape[0]
     n = count
-    stats = np.zeros(6, np.int64)
+    stats[:] = 0
     stats[5] = -1
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
 
@@ -196,9 +197,7 @@ def solve_contacts(
         for a in range(3):
             local[k, a] = R[0, a] * arm_a[k, 0] + R[1, a] * arm_a[k, 1] + R[2, a] * arm_a[k, 2]
         radius[k] = MATCH_FRACTION * slop[k] / settings[cs.SLOP]
-    warm = find_warm_impulses(
-        keys, sorted_features, local, radius, old_keys, old_features, old_points, old_impulses
-    )
+    warm = find_warm_impulses(keys, sorted_features, local, radius, old_keys, old_values)
     lam = np.empty((c, 3))
     for k in range(c):
         for d in range(3):
@@ -241,5 +240,12 @@ def solve_contacts(
             )
         impulse[order[k]] = lam[k]
     by_key = np.argsort(keys, kind="mergesort")
-    warm_state = (keys[by_key], sorted_features[by_key], local[by_key], world_impulse[by_key])
-    return stats, warm_state
+    new_keys = np.empty((c, 2), np.int64)
+    new_values = np.empty((c, 6))
+    for m in range(c):
+        k = by_key[m]
+        new_keys[m, 0], new_keys[m, 1] = keys[k], sorted_features[k]
+        for a in range(3):
+            new_values[m, a] = local[k, a]
+            new_values[m, 3 + a] = world_impulse[k, a]
+    return new_keys, new_values

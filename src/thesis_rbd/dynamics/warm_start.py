@@ -27,28 +27,20 @@ class WarmStart:
 
     Attributes
     ----------
-    keys : (m,) int64
-        Pair key a * (n + 1) + b of each remembered contact, sorted.
-    features : (m,) int64
-        Feature id (-1: none).
-    local_points : (m, 3) float64
-        Contact point in body a's frame (about its centre of mass).
-    impulses : (m, 3) float64
-        World-frame impulse vector the contact applied to body a.
+    keys : (m, 2) int64
+        Pair key a * (n + 1) + b of each remembered contact (sorted), and its feature id
+        (-1: none).
+    values : (m, 6) float64
+        The contact point in body a's frame (about its centre of mass), and the world-frame
+        impulse vector the contact applied to body a.
     """
 
     def __init__(self):
         self.clear()
 
     def clear(self) -> None:
-        self.keys = np.zeros(0, np.int64)
-        self.features = np.zeros(0, np.int64)
-        self.local_points = np.zeros((0, 3))
-        self.impulses = np.zeros((0, 3))
-
-    def replace(self, keys, features, local_points, impulses) -> None:
-        self.keys, self.features = keys, features
-        self.local_points, self.impulses = local_points, impulses
+        self.keys = np.zeros((0, 2), np.int64)
+        self.values = np.zeros((0, 6))
 
 
 @njit
@@ -61,8 +53,7 @@ def pair_keys(body_a, body_b, body_count):
 
 
 @njit
-def find_warm_impulses(keys, features, local_points, radius, old_keys, old_features,
-                       old_points, old_impulses):  # fmt: skip
+def find_warm_impulses(keys, features, local_points, radius, old_keys, old_values):
     """World impulse vectors (c, 3) of each contact's predecessor; zero where none.
 
     Parameters
@@ -72,25 +63,27 @@ def find_warm_impulses(keys, features, local_points, radius, old_keys, old_featu
         The new contacts in body a's frame.
     radius : (c,) float64
         How far a predecessor without a matching feature id may lie.
-    old_keys, old_features, old_points, old_impulses
-        ``WarmStart`` arrays (keys sorted).
+    old_keys, old_values
+        ``WarmStart`` arrays (keys sorted by pair).
     """
     c = keys.shape[0]
+    m = old_keys.shape[0]
     warm = np.zeros((c, 3))
+    pair_column = np.ascontiguousarray(old_keys[:, 0])
     for k in range(c):
-        i = np.searchsorted(old_keys, keys[k])
+        i = np.searchsorted(pair_column, keys[k])
         best, best_d2 = -1, radius[k] * radius[k]
-        while i < old_keys.shape[0] and old_keys[i] == keys[k]:
-            if features[k] >= 0 and old_features[i] == features[k]:
+        while i < m and pair_column[i] == keys[k]:
+            if features[k] >= 0 and old_keys[i, 1] == features[k]:
                 best = i
                 break
             d2 = 0.0
             for a in range(3):
-                d2 += (old_points[i, a] - local_points[k, a]) ** 2
+                d2 += (old_values[i, a] - local_points[k, a]) ** 2
             if d2 <= best_d2:
                 best, best_d2 = i, d2
             i += 1
         if best >= 0:
             for a in range(3):
-                warm[k, a] = old_impulses[best, a]
+                warm[k, a] = old_values[best, 3 + a]
     return warm
