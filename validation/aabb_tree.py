@@ -28,8 +28,8 @@ import time
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.collide import _boxes_disjoint, _carry_box, _half
-from thesis_rbd.collision.packed import layout
+from thesis_rbd.collision.collide import _boxes_disjoint
+from thesis_rbd.collision.packed import carry_box, half_extent, layout
 from thesis_rbd.collision.triangle import tri_tri_overlap
 
 __all__ = [
@@ -424,8 +424,8 @@ def _obb_record(Pa, cha, Pb, hb, chb, M, tr):
         box_log[nv, 1] = y
         nv += 1
         if y != carried:
-            g, c = _carry_box(y, Pb, Lb, M, tr)
-            hy = _half(Pb, Lb, y)
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
         if _boxes_disjoint(x, Pa, La, g, c, hy):
             continue
@@ -485,8 +485,8 @@ def _replay_obb_tests(box_pairs, Pa, Pb, M, tr):
         x = box_pairs[k, 0]
         y = box_pairs[k, 1]
         if y != carried:
-            g, c = _carry_box(y, Pb, Lb, M, tr)
-            hy = _half(Pb, Lb, y)
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
         if _boxes_disjoint(x, Pa, La, g, c, hy):
             disjoint += 1

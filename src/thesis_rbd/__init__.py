@@ -6,7 +6,14 @@ pybullet. Public names only; see DESIGN.md for the contract.
 """
 
 from thesis_rbd import scenes, spatial
-from thesis_rbd.collision import CollisionResult, Contacts, OBBTree, collide
+from thesis_rbd.collision import (
+    CollisionResult,
+    Contacts,
+    DistanceResult,
+    OBBTree,
+    collide,
+    distance,
+)
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
@@ -16,6 +23,7 @@ from thesis_rbd.world import World
 __all__ = [
     "CollisionResult",
     "Contacts",
+    "DistanceResult",
     "MassProperties",
     "OBBTree",
     "Scene",
@@ -25,6 +33,7 @@ __all__ = [
     "TriangleMesh",
     "World",
     "collide",
+    "distance",
     "load_mesh",
     "load_scene",
     "mass_properties",

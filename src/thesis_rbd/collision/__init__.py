@@ -2,7 +2,16 @@
 
 from thesis_rbd.collision.collide import CollisionResult, collide
 from thesis_rbd.collision.contacts import Contacts
+from thesis_rbd.collision.distance import DistanceResult, distance
 from thesis_rbd.collision.obbtree import OBBTree
 from thesis_rbd.collision.sap import SweepAndPrune
 
-__all__ = ["CollisionResult", "Contacts", "OBBTree", "SweepAndPrune", "collide"]
+__all__ = [
+    "CollisionResult",
+    "Contacts",
+    "DistanceResult",
+    "OBBTree",
+    "SweepAndPrune",
+    "collide",
+    "distance",
+]

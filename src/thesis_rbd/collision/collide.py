@@ -36,7 +36,17 @@ from thesis_rbd.collision._query_args import (
 from thesis_rbd.collision._vec3 import sub
 from thesis_rbd.collision.contacts import Contacts, compute_contacts, merge_contacts
 from thesis_rbd.collision.obb import obb_disjoint
-from thesis_rbd.collision.packed import layout, tree_depth
+from thesis_rbd.collision.packed import (
+    box_frame,
+    carry_box,
+    child,
+    corner,
+    corner_moved,
+    half_extent,
+    layout,
+    node_size,
+    tree_depth,
+)
 from thesis_rbd.collision.triangle import tri_box_overlap, tri_tri_overlap
 
 __all__ = ["CollisionResult", "collide"]
@@ -90,90 +100,15 @@ class CollisionResult:
 
 
 @njit
-def _node_size(P, L, k):
-    h = L[1] + k
-    return max(P[h, 0], P[h, 1], P[h, 2])
-
-
-@njit
-def _half(P, L, k):
-    h = L[1] + k
-    return (P[h, 0], P[h, 1], P[h, 2])
-
-
-@njit
-def _carry_box(y, P, L, M, tab):
-    """Box y of tree (P, L) carried by ``x -> M x + tab``: axes ``G = M R[y]`` (row-major
-    9-tuple) and centre."""
-    r = L[2] + 3 * y
-    g = (
-        M[0] * P[r, 0] + M[1] * P[r + 1, 0] + M[2] * P[r + 2, 0],
-        M[0] * P[r, 1] + M[1] * P[r + 1, 1] + M[2] * P[r + 2, 1],
-        M[0] * P[r, 2] + M[1] * P[r + 1, 2] + M[2] * P[r + 2, 2],
-        M[3] * P[r, 0] + M[4] * P[r + 1, 0] + M[5] * P[r + 2, 0],
-        M[3] * P[r, 1] + M[4] * P[r + 1, 1] + M[5] * P[r + 2, 1],
-        M[3] * P[r, 2] + M[4] * P[r + 1, 2] + M[5] * P[r + 2, 2],
-        M[6] * P[r, 0] + M[7] * P[r + 1, 0] + M[8] * P[r + 2, 0],
-        M[6] * P[r, 1] + M[7] * P[r + 1, 1] + M[8] * P[r + 2, 1],
-        M[6] * P[r, 2] + M[7] * P[r + 1, 2] + M[8] * P[r + 2, 2],
-    )
-    k = L[0] + y
-    c = (
-        M[0] * P[k, 0] + M[1] * P[k, 1] + M[2] * P[k, 2] + tab[0],
-        M[3] * P[k, 0] + M[4] * P[k, 1] + M[5] * P[k, 2] + tab[1],
-        M[6] * P[k, 0] + M[7] * P[k, 1] + M[8] * P[k, 2] + tab[2],
-    )
-    return g, c
-
-
-@njit
-def box_frame(x, P, L, g, c):
-    """A box (axes ``g``, a row-major 9-tuple, and centre ``c``, in the mesh frame of tree
-    (P, L)) seen from that tree's box x: (rotation ``R_x^T g`` as a 9-tuple, centre offset
-    ``R_x^T (c - c_x)``), the form the separating-axis tests take."""
-    k = L[0] + x
-    d0 = c[0] - P[k, 0]
-    d1 = c[1] - P[k, 1]
-    d2 = c[2] - P[k, 2]
-    r = L[2] + 3 * x
-    a00 = P[r, 0]
-    a01 = P[r, 1]
-    a02 = P[r, 2]
-    a10 = P[r + 1, 0]
-    a11 = P[r + 1, 1]
-    a12 = P[r + 1, 2]
-    a20 = P[r + 2, 0]
-    a21 = P[r + 2, 1]
-    a22 = P[r + 2, 2]
-    R = (
-        a00 * g[0] + a10 * g[3] + a20 * g[6],
-        a00 * g[1] + a10 * g[4] + a20 * g[7],
-        a00 * g[2] + a10 * g[5] + a20 * g[8],
-        a01 * g[0] + a11 * g[3] + a21 * g[6],
-        a01 * g[1] + a11 * g[4] + a21 * g[7],
-        a01 * g[2] + a11 * g[5] + a21 * g[8],
-        a02 * g[0] + a12 * g[3] + a22 * g[6],
-        a02 * g[1] + a12 * g[4] + a22 * g[7],
-        a02 * g[2] + a12 * g[5] + a22 * g[8],
-    )
-    T = (
-        a00 * d0 + a10 * d1 + a20 * d2,
-        a01 * d0 + a11 * d1 + a21 * d2,
-        a02 * d0 + a12 * d1 + a22 * d2,
-    )
-    return R, T
-
-
-@njit
 def _boxes_disjoint(x, P, L, g, c, b):
     """OBB test of box x of tree (P, L) against a box already carried into its mesh frame.
 
     ``g`` (row-major 9-tuple) and ``c`` are that box's axes and centre in the mesh frame (see
-    :func:`_carry_box`), ``b`` its half-extents. Arrays are indexed element by element (no
+    :func:`.packed.carry_box`), ``b`` its half-extents. Arrays are indexed element by element (no
     row views), which keeps the kernel free of reference counting.
     """
     R, T = box_frame(x, P, L, g, c)
-    return obb_disjoint(R, T, _half(P, L, x), b)
+    return obb_disjoint(R, T, half_extent(P, L, x), b)
 
 
 @njit
@@ -208,33 +143,6 @@ def _closer(c1, c0, P, L, other, Po, Lo, M, tr, b_side):
         d1 += (P[L[0] + c1, i] - o[i]) ** 2
         d0 += (P[L[0] + c0, i] - o[i]) ** 2
     return d1 < d0
-
-
-@njit
-def corner(P, L, t, k):
-    """Corner k of triangle t of tree (P, L), in its mesh frame."""
-    i = L[4] + int(P[L[5] + t, k])
-    return (P[i, 0], P[i, 1], P[i, 2])
-
-
-@njit
-def corner_moved(P, L, t, k, M, tr):
-    """Corner k of triangle t of tree (P, L), mapped by ``x -> M x + tr`` (M row-major)."""
-    i = L[4] + int(P[L[5] + t, k])
-    x = P[i, 0]
-    y = P[i, 1]
-    z = P[i, 2]
-    return (
-        M[0] * x + M[1] * y + M[2] * z + tr[0],
-        M[3] * x + M[4] * y + M[5] * z + tr[1],
-        M[6] * x + M[7] * y + M[8] * z + tr[2],
-    )
-
-
-@njit
-def child(P, L, x, side):
-    """Child code ``side`` (0 or 1) of node x of tree (P, L)."""
-    return int(P[L[3] + x, side])
 
 
 @njit
@@ -275,7 +183,7 @@ def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
     v0 = corner_moved(P, L, t, 0, Q, qt)
     v1 = corner_moved(P, L, t, 1, Q, qt)
     v2 = corner_moved(P, L, t, 2, Q, qt)
-    return tri_box_overlap(v0, v1, v2, _half(Pk, Lk, k))
+    return tri_box_overlap(v0, v1, v2, half_extent(Pk, Lk, k))
 
 
 @njit
@@ -338,8 +246,8 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
             # B's box carried into A's frame is reused while y stays the same (A's children
             # are tested against it one after the other).
             if y != carried:
-                g, c = _carry_box(y, Pb, Lb, Mab, tab_t)
-                hy = _half(Pb, Lb, y)
+                g, c = carry_box(y, Pb, Lb, Mab, tab_t)
+                hy = half_extent(Pb, Lb, y)
                 carried = y
             if _boxes_disjoint(x, Pa, La, g, c, hy):
                 continue
@@ -349,7 +257,7 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 ta = -child(Pa, La, x, 0) - 1
                 tb = -child(Pb, Lb, y, 0) - 1
             else:
-                if a_leaf or (not b_leaf and _node_size(Pb, Lb, y) > _node_size(Pa, La, x)):
+                if a_leaf or (not b_leaf and node_size(Pb, Lb, y) > node_size(Pa, La, x)):
                     c0 = child(Pb, Lb, y, 0)
                     c1 = child(Pb, Lb, y, 1)
                     if first_only and _closer(c1, c0, Pb, Lb, x, Pa, La, Mab, tab_t, True):
