@@ -9,10 +9,16 @@ from thesis_rbd import scenes, spatial
 from thesis_rbd.collision import (
     CollisionResult,
     Contacts,
+    ContinuousResult,
     DistanceResult,
     OBBTree,
+    RayHits,
     collide,
+    collide_batch,
+    continuous_collide,
     distance,
+    distance_batch,
+    ray_cast,
 )
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
@@ -23,9 +29,11 @@ from thesis_rbd.world import World
 __all__ = [
     "CollisionResult",
     "Contacts",
+    "ContinuousResult",
     "DistanceResult",
     "MassProperties",
     "OBBTree",
+    "RayHits",
     "Scene",
     "SceneError",
     "SweepAndPrune",
@@ -33,10 +41,14 @@ __all__ = [
     "TriangleMesh",
     "World",
     "collide",
+    "collide_batch",
+    "continuous_collide",
     "distance",
+    "distance_batch",
     "load_mesh",
     "load_scene",
     "mass_properties",
+    "ray_cast",
     "scenes",
     "shapes",
     "simulate",

@@ -23,7 +23,6 @@ __all__ = [
     "pose_ok",
     "relative_pose",
     "sealed",
-    "stack_ok",
     "tree_array",
 ]
 
@@ -129,15 +128,6 @@ def _first_bad_pose(stack):
         if not pose_ok(stack[k]):
             return k
     return -1
-
-
-@njit
-def stack_ok(stack):
-    """Index of the first pose of a (k, 4, 4) stack that is not rigid, -1 if none, -2 if the
-    stack is empty or not (k, 4, 4)."""
-    if stack.shape[0] == 0 or stack.shape[1] != 4 or stack.shape[2] != 4:
-        return -2
-    return _first_bad_pose(stack)
 
 
 @njit

@@ -32,7 +32,6 @@ from thesis_rbd.collision._query_args import (
     raise_bad_pose,
     relative_pose,
     sealed,
-    stack_ok,
     tree_array,
 )
 from thesis_rbd.collision.box_distance import box_box_gap, triangle_box_gap
@@ -347,21 +346,15 @@ def _distance_kernel(P_a, T_a, P_b, T_b):
 @sealed
 @njit
 def _distance_stack_kernel(P_a, T_a, P_b, T_b):
-    """Distances over pose stacks T_a (k_a, 4, 4) and T_b (k_b, 4, 4), a stack of one
-    broadcast against the other.
+    """Distances over pose stacks T_a (k_a, 4, 4) and T_b (k_b, 4, 4) checked by
+    :func:`pose_stacks`, a stack of one broadcast against the other.
 
-    Returns (status, distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle
-    tests); status 0, or 1 / 2 for a bad T_a / T_b stack (its first bad pose is found again
-    by the caller).
+    Returns (distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle tests).
     """
     k = max(T_a.shape[0], T_b.shape[0])
     distances = np.empty(k)
     points = np.empty((k, 2, 3))
     faces = np.empty((k, 2), dtype=np.int64)
-    if stack_ok(T_a) != -1:
-        return 1, distances, points, faces, 0, 0
-    if stack_ok(T_b) != -1:
-        return 2, distances, points, faces, 0, 0
     bound_tests = 0
     triangle_tests = 0
     for i in range(k):
@@ -379,7 +372,7 @@ def _distance_stack_kernel(P_a, T_a, P_b, T_b):
         faces[i, 1] = fb
         bound_tests += nb
         triangle_tests += nt
-    return 0, distances, points, faces, bound_tests, triangle_tests
+    return distances, points, faces, bound_tests, triangle_tests
 
 
 def _is_stack(T) -> bool:
@@ -405,11 +398,7 @@ def pose_stacks(tree_a, T_a, tree_b, T_b):
 
 def stacked_distances(tree_a, T_a, tree_b, T_b):
     """(distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle tests)."""
-    args = pose_stacks(tree_a, T_a, tree_b, T_b)
-    status, distances, points, faces, nb, nt = call_normalised(_distance_stack_kernel, *args)
-    if status:
-        raise ValueError(f"{'T_a' if status == 1 else 'T_b'} holds a pose that is not rigid")
-    return distances, points, faces, nb, nt
+    return call_normalised(_distance_stack_kernel, *pose_stacks(tree_a, T_a, tree_b, T_b))
 
 
 def distance(tree_a, T_a, tree_b, T_b) -> DistanceResult:
