@@ -379,19 +379,20 @@ def _is_stack(T) -> bool:
     return np.ndim(T) == 3
 
 
-def pose_stacks(tree_a, T_a, tree_b, T_b):
+def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b")):
     """Packed trees and (k, 4, 4) pose stacks for a stack kernel, or ValueError.
 
-    A lone (4, 4) pose is a stack of one; two stacks must have the same length.
+    A lone (4, 4) pose is a stack of one; two stacks must have the same length. ``names``
+    are the pose arguments' names for the messages.
     """
     P_a = tree_array(tree_a, "tree_a")
     P_b = tree_array(tree_b, "tree_b")
-    S_a = as_pose_stack(T_a, "T_a")
-    S_b = as_pose_stack(T_b, "T_b")
+    S_a = as_pose_stack(T_a, names[0])
+    S_b = as_pose_stack(T_b, names[1])
     if len(S_a) != len(S_b) and len(S_a) != 1 and len(S_b) != 1:
         raise ValueError(
-            f"T_a and T_b stacks must have the same length (or one pose), got {len(S_a)} "
-            f"and {len(S_b)}"
+            f"{names[0]} and {names[1]} stacks must have the same length (or one pose), got "
+            f"{len(S_a)} and {len(S_b)}"
         )
     return P_a, S_a, P_b, S_b
 
