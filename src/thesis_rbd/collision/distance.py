@@ -155,6 +155,36 @@ def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
 
 
 @njit
+def _measure(x, y, Pa, La, Pb, Lb, Mab, tab):
+    """Exact distance of the triangle pair (x, y) (codes < 0), points in A's frame."""
+    ta = -x - 1
+    tb = -y - 1
+    return triangle_distance(
+        corner(Pa, La, ta, 0),
+        corner(Pa, La, ta, 1),
+        corner(Pa, La, ta, 2),
+        corner_moved(Pb, Lb, tb, 0, Mab, tab),
+        corner_moved(Pb, Lb, tb, 1, Mab, tab),
+        corner_moved(Pb, Lb, tb, 2, Mab, tab),
+    )
+
+
+@njit
+def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
+    """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
+    ta = -x - 1
+    tb = -y - 1
+    return triangle_gap(
+        corner(Pa, La, ta, 0),
+        corner(Pa, La, ta, 1),
+        corner(Pa, La, ta, 2),
+        corner_moved(Pb, Lb, tb, 0, Mab, tab),
+        corner_moved(Pb, Lb, tb, 1, Mab, tab),
+        corner_moved(Pb, Lb, tb, 2, Mab, tab),
+    )
+
+
+@njit
 def _children(P, L, x):
     """The (one or two) child codes of node x: a classic tree's leaf has one, its triangle."""
     c0 = child(P, L, x, 0)
@@ -195,51 +225,46 @@ def mesh_distance(Pa, Pb, Mab, tab):
     face_b = -1
     bound_tests = 0
     triangle_tests = 0
+    # The children pairs of one split (one or two): (x0, y0), (x1, y1), and their bounds.
+    x0 = La[6]
+    y0 = Lb[6]
+    x1 = y1 = 0
+    n_pending = 1
+    if x0 < 0 and y0 < 0:
+        # Two single triangles: no tree to descend.
+        d, pa, pb = _measure(x0, y0, Pa, La, Pb, Lb, Mab, tab)
+        return d, pa, pb, -x0 - 1, -y0 - 1, 0, 1
     heap = np.empty((8 * (tree_depth(Pa) + tree_depth(Pb)) + 16, 4))
     size = 0
     order = 0
-    # The children pairs of one split (up to 2) and their bounds.
-    pending = np.empty((2, 2), dtype=np.int64)
-    bounds = np.empty(2)
-    pending[0, 0] = La[6]
-    pending[0, 1] = Lb[6]
-    n_pending = 1
     # B's box last carried into A's frame (reused while the same B node meets A's children).
     carried = -1
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
     while True:
         # Measure the triangle pairs first (lowering the best distance), then bound the rest.
+        b0 = math.inf
+        b1 = math.inf
         for k in range(n_pending):
-            x = pending[k, 0]
-            y = pending[k, 1]
-            bounds[k] = math.inf
+            x = x0 if k == 0 else x1
+            y = y0 if k == 0 else y1
             if x >= 0 or y >= 0:
                 continue
-            ta = -x - 1
-            tb = -y - 1
-            p0 = corner(Pa, La, ta, 0)
-            p1 = corner(Pa, La, ta, 1)
-            p2 = corner(Pa, La, ta, 2)
-            q0 = corner_moved(Pb, Lb, tb, 0, Mab, tab)
-            q1 = corner_moved(Pb, Lb, tb, 1, Mab, tab)
-            q2 = corner_moved(Pb, Lb, tb, 2, Mab, tab)
-            if best < math.inf and triangle_gap(p0, p1, p2, q0, q1, q2) >= best:
+            if best < math.inf and _gap(x, y, Pa, La, Pb, Lb, Mab, tab) >= best:
                 continue
             triangle_tests += 1
-            d, pa, pb = triangle_distance(p0, p1, p2, q0, q1, q2)
+            d, pa, pb = _measure(x, y, Pa, La, Pb, Lb, Mab, tab)
             if d < best:
                 best = d
                 best_a = pa
                 best_b = pb
-                face_a = ta
-                face_b = tb
+                face_a = -x - 1
+                face_b = -y - 1
         if best == 0.0:
             break
-        nearest = -1
         for k in range(n_pending):
-            x = pending[k, 0]
-            y = pending[k, 1]
+            x = x0 if k == 0 else x1
+            y = y0 if k == 0 else y1
             if x < 0 and y < 0:
                 continue
             bound_tests += 1
@@ -249,29 +274,34 @@ def mesh_distance(Pa, Pb, Mab, tab):
                     carried = y
                 R, T = box_frame(x, Pa, La, g, c)
                 hx = half_extent(Pa, La, x)
-                bounds[k] = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
+                bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
             elif x < 0:
                 v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
-                bounds[k] = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
+                bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
             else:
                 v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
-                bounds[k] = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
-            if bounds[k] < best and (nearest < 0 or bounds[k] <= bounds[nearest]):
-                nearest = k
+                bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
+            if k == 0:
+                b0 = bound
+            else:
+                b1 = bound
         # Go on with the child of least bound while it is no worse than the queue's best
-        # (no queue traffic on the way down); queue the rest.
-        dive = nearest >= 0 and (size == 0 or bounds[nearest] <= heap[0, 0])
+        # (no queue traffic on the way down); queue the rest. (b1 is inf unless two children.)
+        nearest = 1 if b1 <= b0 else 0
+        least = min(b0, b1)
+        dive = least < best and (size == 0 or least <= heap[0, 0])
         for k in range(n_pending):
-            if bounds[k] >= best or (dive and k == nearest):
+            bound = b0 if k == 0 else b1
+            if bound >= best or (dive and k == nearest):
                 continue
             if size == heap.shape[0]:
                 heap = _grown(heap)
             order += 1
             i = size
-            heap[i, 0] = bounds[k]
+            heap[i, 0] = bound
             heap[i, 1] = order
-            heap[i, 2] = pending[k, 0]
-            heap[i, 3] = pending[k, 1]
+            heap[i, 2] = x0 if k == 0 else x1
+            heap[i, 3] = y0 if k == 0 else y1
             size += 1
             while i > 0 and _before(heap, i, (i - 1) // 2):
                 parent = (i - 1) // 2
@@ -279,8 +309,8 @@ def mesh_distance(Pa, Pb, Mab, tab):
                     heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
                 i = parent
         if dive:
-            x = pending[nearest, 0]
-            y = pending[nearest, 1]
+            x = x0 if nearest == 0 else x1
+            y = y0 if nearest == 0 else y1
         else:
             if size == 0 or heap[0, 0] >= best:
                 break
@@ -303,18 +333,15 @@ def mesh_distance(Pa, Pb, Mab, tab):
         # Split the larger node (a node facing a triangle is split).
         split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
         if split_b:
-            c0, c1, n = _children(Pb, Lb, y)
+            c0, c1, n_pending = _children(Pb, Lb, y)
+            x0 = x1 = x
+            y0 = c0
+            y1 = c1
         else:
-            c0, c1, n = _children(Pa, La, x)
-        n_pending = n
-        for side in range(n):
-            code = c0 if side == 0 else c1
-            if split_b:
-                pending[side, 0] = x
-                pending[side, 1] = code
-            else:
-                pending[side, 0] = code
-                pending[side, 1] = y
+            c0, c1, n_pending = _children(Pa, La, x)
+            x0 = c0
+            x1 = c1
+            y0 = y1 = y
     return best, best_a, best_b, face_a, face_b, bound_tests, triangle_tests
 
 
