@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd._validate import RIGID_TOLERANCE, as_finite_array, as_rigid_transform
+from thesis_rbd._validate import RIGID_TOLERANCE, as_rigid_transform
 
 __all__ = [
     "as_pose",
@@ -73,7 +73,8 @@ def as_pose(T, name: str) -> np.ndarray:
 
 
 def as_pose_stack(T, name: str) -> np.ndarray:
-    """A fresh (k, 4, 4) float64 stack of rigid transforms (a lone (4, 4) pose gives k = 1).
+    """``T`` as a (k, 4, 4) float64 stack of rigid transforms for a kernel (a lone (4, 4) pose
+    gives k = 1); copied only if it is not a writable, C-contiguous float64 array already.
 
     Raises
     ------
@@ -81,17 +82,22 @@ def as_pose_stack(T, name: str) -> np.ndarray:
         If ``T`` is not (4, 4) or (k, 4, 4) with k >= 1, or a pose is not a finite rigid
         transform (the message names ``name`` and the index of the first bad pose).
     """
-    array = np.asarray(T) if not isinstance(T, np.ndarray) else T
+    try:
+        array = np.asarray(T, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric, got {type(T).__name__}: {exc}") from exc
     if array.ndim == 2:
         return as_pose(array, name)[None]
-    stack = as_finite_array(array, name, shape=(None, 4, 4))
-    if len(stack) == 0:
-        raise ValueError(f"{name} must hold at least one pose, got shape {stack.shape}")
+    if array.ndim != 3 or array.shape[1:] != (4, 4):
+        raise ValueError(f"{name} must have shape (4, 4) or (k, 4, 4), got {array.shape}")
+    if len(array) == 0:
+        raise ValueError(f"{name} must hold at least one pose, got shape {array.shape}")
+    stack = np.require(array, requirements=["C", "W", "A"])
     bad = _first_bad_pose(stack)
     if bad >= 0:
         as_rigid_transform(stack[bad], f"{name}[{bad}]")
         raise ValueError(f"{name}[{bad}] is not a rigid transform")
-    return np.array(stack, dtype=np.float64, order="C")
+    return stack
 
 
 @njit

@@ -14,7 +14,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.collision._query_args import call_normalised, sealed
-from thesis_rbd.collision.collide import traverse
+from thesis_rbd.collision.collide import roots_disjoint, traverse
 from thesis_rbd.collision.distance import pose_stacks, stacked_distances
 
 __all__ = ["collide_batch", "distance_batch"]
@@ -30,8 +30,9 @@ def _collide_stack_kernel(P_a, T_a, P_b, T_b):
     for i in range(k):
         Ta = T_a[0] if T_a.shape[0] == 1 else T_a[i]
         Tb = T_b[0] if T_b.shape[0] == 1 else T_b[i]
-        pairs, _, _, _ = traverse(True, P_a, P_b, Ta, Tb)
-        colliding[i] = pairs.shape[0] > 0
+        if not roots_disjoint(P_a, P_b, Ta, Tb):
+            pairs, _, _, _ = traverse(True, P_a, P_b, Ta, Tb)
+            colliding[i] = pairs.shape[0] > 0
     return colliding
 
 

@@ -112,37 +112,21 @@ def _boxes_disjoint(x, P, L, g, c, b):
 
 
 @njit
-def _closer(c1, c0, P, L, other, Po, Lo, M, tr, b_side):
-    """Whether child c1 of tree (P, L) lies nearer than child c0 to node ``other`` of the
-    other tree (Po, Lo).
+def _carried_centre(P, L, k, M, tr):
+    """Centre of box k of tree (P, L) mapped by ``x -> M x + tr`` (M row-major)."""
+    c = L[0] + k
+    return (
+        M[0] * P[c, 0] + M[1] * P[c, 1] + M[2] * P[c, 2] + tr[0],
+        M[3] * P[c, 0] + M[4] * P[c, 1] + M[5] * P[c, 2] + tr[1],
+        M[6] * P[c, 0] + M[7] * P[c, 1] + M[8] * P[c, 2] + tr[2],
+    )
 
-    Used only by "first" queries: visiting the nearer child first finds an intersecting pair
-    sooner on average. Children that are triangles (< 0) have no centre: keep the order.
-    """
-    if c0 < 0 or c1 < 0:
-        return False
-    k = Lo[0] + other
-    if b_side:
-        # Children are B's nodes: compare in B's frame against A's centre carried there.
-        p = (Po[k, 0] - tr[0], Po[k, 1] - tr[1], Po[k, 2] - tr[2])
-        o = (
-            M[0] * p[0] + M[3] * p[1] + M[6] * p[2],
-            M[1] * p[0] + M[4] * p[1] + M[7] * p[2],
-            M[2] * p[0] + M[5] * p[1] + M[8] * p[2],
-        )
-    else:
-        q = (Po[k, 0], Po[k, 1], Po[k, 2])
-        o = (
-            M[0] * q[0] + M[1] * q[1] + M[2] * q[2] + tr[0],
-            M[3] * q[0] + M[4] * q[1] + M[5] * q[2] + tr[1],
-            M[6] * q[0] + M[7] * q[1] + M[8] * q[2] + tr[2],
-        )
-    d1 = 0.0
-    d0 = 0.0
-    for i in range(3):
-        d1 += (P[L[0] + c1, i] - o[i]) ** 2
-        d0 += (P[L[0] + c0, i] - o[i]) ** 2
-    return d1 < d0
+
+@njit
+def _centre_distance2(P, L, k, o):
+    """Squared distance from the centre of box k of tree (P, L) to the point ``o``."""
+    c = L[0] + k
+    return (P[c, 0] - o[0]) ** 2 + (P[c, 1] - o[1]) ** 2 + (P[c, 2] - o[2]) ** 2
 
 
 @njit
@@ -187,17 +171,11 @@ def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
 
 
 @njit
-def _push(stack, top, x0, y0, x1, y1):
-    """Push pairs (x0, y0) then (x1, y1) (so (x1, y1) pops first); return the stack."""
-    if top + 2 > stack.shape[0]:
-        bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
-        bigger[:top] = stack[:top]
-        stack = bigger
-    stack[top, 0] = x0
-    stack[top, 1] = y0
-    stack[top + 1, 0] = x1
-    stack[top + 1, 1] = y1
-    return stack
+def _grown(stack, top):
+    """The stack with twice the room (its first ``top`` rows kept)."""
+    bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
+    bigger[:top] = stack[:top]
+    return bigger
 
 
 @njit
@@ -257,18 +235,31 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 ta = -child(Pa, La, x, 0) - 1
                 tb = -child(Pb, Lb, y, 0) - 1
             else:
+                if top + 2 > stack.shape[0]:
+                    stack = _grown(stack, top)
                 if a_leaf or (not b_leaf and node_size(Pb, Lb, y) > node_size(Pa, La, x)):
                     c0 = child(Pb, Lb, y, 0)
                     c1 = child(Pb, Lb, y, 1)
-                    if first_only and _closer(c1, c0, Pb, Lb, x, Pa, La, Mab, tab_t, True):
-                        c0, c1 = c1, c0
-                    stack = _push(stack, top, x, c1, x, c0)
+                    # "first": visit the child nearer the other box first (in B's frame).
+                    if first_only and c0 >= 0 and c1 >= 0:
+                        o = _carried_centre(Pa, La, x, Mba, tba_t)
+                        if _centre_distance2(Pb, Lb, c1, o) < _centre_distance2(Pb, Lb, c0, o):
+                            c0, c1 = c1, c0
+                    stack[top, 0] = x
+                    stack[top, 1] = c1
+                    stack[top + 1, 0] = x
+                    stack[top + 1, 1] = c0
                 else:
                     c0 = child(Pa, La, x, 0)
                     c1 = child(Pa, La, x, 1)
-                    if first_only and _closer(c1, c0, Pa, La, y, Pb, Lb, Mab, tab_t, False):
-                        c0, c1 = c1, c0
-                    stack = _push(stack, top, c1, y, c0, y)
+                    if first_only and c0 >= 0 and c1 >= 0:
+                        o = _carried_centre(Pb, Lb, y, Mab, tab_t)
+                        if _centre_distance2(Pa, La, c1, o) < _centre_distance2(Pa, La, c0, o):
+                            c0, c1 = c1, c0
+                    stack[top, 0] = c1
+                    stack[top, 1] = y
+                    stack[top + 1, 0] = c0
+                    stack[top + 1, 1] = y
                 top += 2
                 continue
         elif x < 0 and y < 0:
@@ -283,7 +274,12 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 box_tests += 1
                 if not _tri_in_box(Pa, La, -x - 1, Mba, tba_t, Pb, Lb, y):
                     continue
-                stack = _push(stack, top, x, child(Pb, Lb, y, 1), x, child(Pb, Lb, y, 0))
+                if top + 2 > stack.shape[0]:
+                    stack = _grown(stack, top)
+                stack[top, 0] = x
+                stack[top, 1] = child(Pb, Lb, y, 1)
+                stack[top + 1, 0] = x
+                stack[top + 1, 1] = child(Pb, Lb, y, 0)
                 top += 2
                 continue
         else:
@@ -295,7 +291,12 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 box_tests += 1
                 if not _tri_in_box(Pb, Lb, -y - 1, Mab, tab_t, Pa, La, x):
                     continue
-                stack = _push(stack, top, child(Pa, La, x, 1), y, child(Pa, La, x, 0), y)
+                if top + 2 > stack.shape[0]:
+                    stack = _grown(stack, top)
+                stack[top, 0] = child(Pa, La, x, 1)
+                stack[top, 1] = y
+                stack[top + 1, 0] = child(Pa, La, x, 0)
+                stack[top + 1, 1] = y
                 top += 2
                 continue
         # A triangle pair.
@@ -342,6 +343,22 @@ def _to_world(points, normals, T):
     return P, N
 
 
+@njit
+def roots_disjoint(Pa, Pb, T_a, T_b):
+    """Whether the root boxes of two trees (both nodes) are disjoint at poses T_a, T_b.
+
+    The test :func:`traverse` makes first, done without allocating anything: queries that
+    miss at the root (most of a motion planner's) end here.
+    """
+    La = layout(Pa)
+    Lb = layout(Pb)
+    if La[6] < 0 or Lb[6] < 0:
+        return False
+    Mab, tab = relative_pose(T_a, T_b)
+    g, c = carry_box(Lb[6], Pb, Lb, Mab, tab)
+    return _boxes_disjoint(La[6], Pa, La, g, c, half_extent(Pb, Lb, Lb[6]))
+
+
 @sealed
 @njit
 def _first_kernel(P_a, T_a, P_b, T_b):
@@ -354,6 +371,8 @@ def _first_kernel(P_a, T_a, P_b, T_b):
         return 1, -1, -1, 0, 0, 0
     if not pose_ok(T_b):
         return 2, -1, -1, 0, 0, 0
+    if roots_disjoint(P_a, P_b, T_a, T_b):
+        return 0, -1, -1, 1, 0, 0
     pairs, bv, box, tri = traverse(True, P_a, P_b, T_a, T_b)
     if pairs.shape[0] == 0:
         return 0, -1, -1, bv, box, tri
