@@ -17,6 +17,11 @@ the relative transform ``(R_ab, t_ab) = T_a^-1 T_b`` (a carried box is reused wh
 node is tested against A's children). In "first" mode the nearer child (by box centre) is
 visited first, which finds an intersecting pair after about a quarter of the tests on the
 tori demo; "all" visits everything anyway and skips that bookkeeping.
+
+Trees reach the kernels as their packed arrays (:mod:`.packed`, one argument per tree) and
+poses as given, checked inside a sealed kernel (:mod:`._query_args`); a "first" query whose
+root boxes are disjoint returns before the traversal allocates its stack. These keep the cost
+of a query that misses at the root near python-fcl's.
 """
 
 from __future__ import annotations
