@@ -35,7 +35,8 @@ import time
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.collide import _boxes_disjoint, _carry_box
+from thesis_rbd.collision.collide import _boxes_disjoint
+from thesis_rbd.collision.packed import carry_box, half_extent, layout
 from thesis_rbd.collision.triangle import tri_tri_overlap
 from validation.triangle_sat import triangles_overlap
 
@@ -417,12 +418,16 @@ def record_aabb_traversal(tree_a, T_a, tree_b, T_b):
 
 
 @njit
-def _obb_record(ca, ra, ha, cha, cb, rb, hb, chb, M, tr):
+def _obb_record(Pa, cha, Pb, hb, chb, M, tr):
     """The classic (leaf) OBB tree's "all" traversal, logging its tests.
 
     Mirrors :func:`thesis_rbd.collision.collide.traverse` for two leaf trees (no first-mode
-    child ordering); returns (box_log (nv, 2), tri_log (np, 2)).
+    child ordering); trees as their packed query arrays for the box tests, plus the arrays
+    the descent reads. Returns (box_log (nv, 2), tri_log (np, 2)).
     """
+    La = layout(Pa)
+    Lb = layout(Pb)
+    ha = Pa[La[1] : La[2]]
     box_log = np.empty((1024, 2), dtype=np.int64)
     tri_log = np.empty((1024, 2), dtype=np.int64)
     stack = np.empty((64, 2), dtype=np.int64)
@@ -447,10 +452,10 @@ def _obb_record(ca, ra, ha, cha, cb, rb, hb, chb, M, tr):
         box_log[nv, 1] = y
         nv += 1
         if y != carried:
-            g, c = _carry_box(y, cb, rb, M, tr)
-            hy = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
-        if _boxes_disjoint(x, ca, ra, ha, g, c, hy):
+        if _boxes_disjoint(x, Pa, La, g, c, hy):
             continue
         a_leaf = cha[x, 0] < 0
         b_leaf = chb[y, 0] < 0
@@ -489,14 +494,16 @@ def record_obb_traversal(tree_a, T_a, tree_b, T_b):
         raise ValueError("record_obb_traversal needs classic (leafless=False) OBB trees")
     R, tr = relative_pose(T_a, T_b)
     return _obb_record(
-        tree_a.centers, tree_a.rotations, tree_a.half_extents, tree_a.children,
-        tree_b.centers, tree_b.rotations, tree_b.half_extents, tree_b.children,
+        tree_a.query_array(), tree_a.children,
+        tree_b.query_array(), tree_b.half_extents, tree_b.children,
         _row_major(R), (float(tr[0]), float(tr[1]), float(tr[2])),
     )  # fmt: skip
 
 
 @njit
-def _replay_obb_tests(box_pairs, ca, ra, ha, cb, rb, hb, M, tr):
+def _replay_obb_tests(box_pairs, Pa, Pb, M, tr):
+    La = layout(Pa)
+    Lb = layout(Pb)
     disjoint = 0
     carried = -1
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -506,10 +513,10 @@ def _replay_obb_tests(box_pairs, ca, ra, ha, cb, rb, hb, M, tr):
         x = box_pairs[k, 0]
         y = box_pairs[k, 1]
         if y != carried:
-            g, c = _carry_box(y, cb, rb, M, tr)
-            hy = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
-        if _boxes_disjoint(x, ca, ra, ha, g, c, hy):
+        if _boxes_disjoint(x, Pa, La, g, c, hy):
             disjoint += 1
     return disjoint
 
@@ -566,10 +573,7 @@ def time_obb_tests(tree_a, T_a, tree_b, T_b, box_pairs, repeats: int = 3) -> flo
     """
     R, tr = relative_pose(T_a, T_b)
     M, t = _row_major(R), (float(tr[0]), float(tr[1]), float(tr[2]))
-    args = (
-        box_pairs, tree_a.centers, tree_a.rotations, tree_a.half_extents,
-        tree_b.centers, tree_b.rotations, tree_b.half_extents, M, t,
-    )  # fmt: skip
+    args = (box_pairs, tree_a.query_array(), tree_b.query_array(), M, t)
     return _best_seconds(lambda: _replay_obb_tests(*args), repeats)
 
 

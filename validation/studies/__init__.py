@@ -40,6 +40,8 @@ from validation.studies import (
     obb_vs_aabb,
     obbtree_benchmarks,
     obbtree_variants,
+    query_benchmarks,
+    query_costs,
     sap_benchmarks,
     stability_suite,
 )
@@ -62,6 +64,8 @@ STUDIES: dict[str, ModuleType] = {
         lcp_vs_pgs,
         stability_suite,
         obbtree_benchmarks,
+        query_costs,
+        query_benchmarks,
         sap_benchmarks,
         contact_benchmarks,
     )

@@ -30,6 +30,7 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.collision.hull import hull_moments
 from thesis_rbd.collision.obb import symmetric_eigenvectors, triangle_moments
+from thesis_rbd.collision.packed import pack_tree, packed_views
 from thesis_rbd.geometry.mesh import TriangleMesh
 
 __all__ = ["OBBTree"]
@@ -392,14 +393,36 @@ class OBBTree:
             dtype == np.float32,
             _PAD[dtype],
         )
-        self.centers = centers.astype(dtype)
-        self.rotations = rotations.astype(dtype)
-        self.half_extents = halves.astype(dtype)
-        self.children = children
         self.root = int(root)
         self.depth = int(depth)
+        self._packed = None
+        if dtype == np.float64:
+            # The public box arrays are views into the query array (see :mod:`.packed`).
+            self._packed = pack_tree(
+                centers, rotations, halves, children, self.root, self.leafless, self.depth,
+                mesh.vertices, mesh.faces,
+            )  # fmt: skip
+            centers, rotations, halves = packed_views(self._packed)
+        self.centers = centers.astype(dtype, copy=False)
+        self.rotations = rotations.astype(dtype, copy=False)
+        self.half_extents = halves.astype(dtype, copy=False)
+        self.children = children
         for array in (self.centers, self.rotations, self.half_extents, self.children):
             array.flags.writeable = False
+
+    def query_array(self) -> np.ndarray:
+        """The packed (rows, 3) float64 array the query kernels read (:mod:`.packed`).
+
+        A float64 tree's box arrays are views into it already; a float32 tree gets a float64
+        copy of its boxes (the same, exactly representable values) on its first query, so
+        the kernels are compiled once, for float64.
+        """
+        if self._packed is None:
+            self._packed = pack_tree(
+                self.centers, self.rotations, self.half_extents, self.children, self.root,
+                self.leafless, self.depth, self._mesh.vertices, self._mesh.faces,
+            )  # fmt: skip
+        return self._packed
 
     @property
     def mesh(self) -> TriangleMesh:
