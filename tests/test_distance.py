@@ -10,7 +10,7 @@ from reference import MESH_KINDS, examples, point_triangle_distance, random_mesh
 from reference_queries import brute_force_distance, segment_distance, triangle_distance_reference
 
 import thesis_rbd as rbd
-from thesis_rbd.collision._fcl import fcl_model, fcl_object, require_fcl
+from validation.fcl_adapter import fcl_model, fcl_object, require_fcl
 from validation.tori import tori_mesh, tori_poses
 
 VARIANTS = [

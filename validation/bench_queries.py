@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 
 import thesis_rbd as rbd
-from thesis_rbd.collision._fcl import fcl_model, fcl_object, fcl_transform, require_fcl
+from validation.fcl_adapter import fcl_model, fcl_object, fcl_transform, require_fcl
 from validation.tori import tori_mesh, tori_poses
 
 LIFT = 0.8  # m along z: the separated variant of the tori path

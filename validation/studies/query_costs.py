@@ -63,7 +63,7 @@ class _Scene:
 
     def __init__(self, pose_stride, motion_stride):
         import thesis_rbd as rbd
-        from thesis_rbd.collision._fcl import fcl_model, fcl_object, fcl_transform, require_fcl
+        from validation.fcl_adapter import fcl_model, fcl_object, fcl_transform, require_fcl
         from validation.tori import tori_mesh, tori_poses
 
         self.rbd = rbd
