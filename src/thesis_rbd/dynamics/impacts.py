@@ -199,8 +199,9 @@ def resolve_impacts(
         threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
         if u < -threshold:
             bounce[k] = restitution[a] * restitution[b]
-        # a contact not touching yet takes no part in the collision
-        bias[k] = 0.0 if depths[sel[k]] >= 0.0 else np.inf
+        # a contact not touching yet (beyond round-off: within the slop) takes no part in the
+        # collision
+        bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
         mu[k] = math.sqrt(friction[a] * friction[b])
     for k in range(kept):
         tolerance[k] = IMPACT_TOLERANCE * fastest
