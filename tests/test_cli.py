@@ -73,7 +73,7 @@ def test_quiet_and_verbose(tmp_path):
     verbose = invoke("run", "thesis_example", "-s", 0.1, "-v")
     assert verbose.exit_code == 0
     assert "body[1] box2: box (12 faces), mass 10 kg, 1 applied force(s)" in verbose.output
-    assert "stages: forces -> integrate" in verbose.output
+    assert "stages: forces -> contacts -> integrate" in verbose.output
 
 
 def test_a_scene_file_path_runs(tmp_path):

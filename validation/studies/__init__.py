@@ -29,6 +29,7 @@ from types import ModuleType
 from validation.studies import (
     collision_modes,
     contact_benchmarks,
+    contact_formulations,
     dzhanibekov,
     effects_benchmarks,
     fcl_crosscheck,
@@ -63,6 +64,7 @@ STUDIES: dict[str, ModuleType] = {
         impact_handling,
         lcp_vs_pgs,
         stability_suite,
+        contact_formulations,
         obbtree_benchmarks,
         query_costs,
         query_benchmarks,
