@@ -4,6 +4,7 @@
   of one with an edge of the other (no Gauss-map pruning), both signs; the penetration along
   an axis n (B towards A) is how far A must move along n to clear B, max_B x.n - min_A x.n,
   and the least of these is the exact penetration depth of two convex polyhedra.
+* ``face_separation``: the greatest separation over the hulls' own outward face normals.
 * ``contact_polygon``: the part of the incident face (the other body's face most opposed to
   the reference face) that lies over the reference face and below its plane, computed as
   a 2D half-plane intersection (``scipy.spatial.HalfspaceIntersection``) in the reference
@@ -21,6 +22,7 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 __all__ = [
     "best_four_area",
     "contact_polygon",
+    "face_separation",
     "hull_planes",
     "least_penetration",
     "polygon_area",
@@ -83,6 +85,16 @@ def least_penetration(points_a, points_b):
         float(depth_along[best]), normal, float(runner_up), float(depth_along[best_face]),
         float(edge_depth),
     )  # fmt: skip
+
+
+def face_separation(points_a, points_b):
+    """Greatest separation of the hulls over their own outward face normals: how far B lies
+    beyond a face of A, or A beyond a face of B (negative when every face is crossed)."""
+    na, da = hull_planes(points_a)
+    nb, db = hull_planes(points_b)
+    beyond_a = (points_b @ na.T).min(axis=0) - da
+    beyond_b = (points_a @ nb.T).min(axis=0) - db
+    return float(max(beyond_a.max(), beyond_b.max()))
 
 
 def overlap_lp(points_a, points_b) -> bool:
@@ -168,8 +180,14 @@ def contact_polygon(points_a, points_b, normal):
     # depth >= 0:  -(g . x + c) <= 0
     halfplanes.append(np.array([[-fit[0], -fit[1], -fit[2]]]))
     halfplanes = np.concatenate(halfplanes)
-    # an interior point: Chebyshev centre by LP
+    # a row whose normal vanishes (the depth of faces exactly parallel) bounds nothing: it
+    # holds everywhere or nowhere
     norms = np.linalg.norm(halfplanes[:, :2], axis=1)
+    vanishing = norms <= 1e-12 * norms.max()
+    if (halfplanes[vanishing, 2] > 0).any():
+        return np.zeros((0, 3)), ambiguous, np.zeros(0), -opposed[order[0]]
+    halfplanes, norms = halfplanes[~vanishing], norms[~vanishing]
+    # an interior point: Chebyshev centre by LP
     res = linprog(
         [0, 0, -1],
         A_ub=np.column_stack([halfplanes[:, :2], norms]),

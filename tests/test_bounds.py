@@ -14,10 +14,12 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
+from thesis_rbd.collision.convex_contacts import SPECULATIVE_FRACTION
 
 
-def tight_boxes(world, members=None, fast=None):
-    """(2, n, 3) tight boxes of the bodies of a world (all, unless ``members``)."""
+def tight_boxes(world, members=None, fast=None, speculative=0.0, reach=0.0):
+    """(2, n, 3) tight boxes of the bodies of a world (all, unless ``members``), grown by
+    the speculative margin max(speculative * thickness, reach)."""
     b, c = world.bodies, world._collision
     n = len(world)
     members = np.arange(n) if members is None else members
@@ -25,7 +27,7 @@ def tight_boxes(world, members=None, fast=None):
     tight = np.full((2, n, 3), np.nan)
     tight_bounds(
         members, c.box_offset, c.box_half, b.size, b.position, b.orientation,
-        world._start_position, fast, tight,
+        world._start_position, fast, b.thickness, speculative, reach, tight,
     )  # fmt: skip
     return tight
 
@@ -76,7 +78,13 @@ def test_axis_aligned_box_is_tight_and_a_static_fat_box_is_its_tight_box():
     np.testing.assert_allclose(tight[0, 0], [4.5, 5, 5.5])
     np.testing.assert_allclose(tight[1, 0], [5.5, 7, 8.5])
     world.step()
-    np.testing.assert_array_equal(world._collision.fat[:, 0], tight[:, 0])
+    # grown by the speculative margin: a thousandth of its thickness, or gravity's reach
+    reach = 2.0 * np.linalg.norm(world.gravity) * world.dt**2
+    grown = tight_boxes(world, speculative=SPECULATIVE_FRACTION, reach=reach)
+    np.testing.assert_array_equal(world._collision.fat[:, 0], grown[:, 0])
+    margin = max(SPECULATIVE_FRACTION * 1.0, reach)
+    np.testing.assert_allclose(grown[0, 0], tight[0, 0] - margin, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(grown[1, 0], tight[1, 0] + margin, rtol=0, atol=1e-12)
 
 
 def test_tight_box_is_the_arvo_box_clipped_to_the_bounding_sphere():

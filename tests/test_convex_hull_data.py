@@ -131,7 +131,7 @@ def test_hull_set_shares_hulls_and_marks_non_convex_meshes():
     assert hulls.hull_of(cube) == 0
     assert hulls.hull_of(torus) == -1
     arrays = hulls.arrays()
-    assert len(arrays) == 17
+    assert len(arrays) == 18
     assert hulls.vertex_start.tolist() == [0, 8, 170]
     assert hulls.face_start.tolist() == [0, 6, 326]
     assert hulls.longest_loop == 4

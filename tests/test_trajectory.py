@@ -39,7 +39,7 @@ def test_frames_every_k_steps_and_always_the_last():
     np.testing.assert_array_equal(trajectory.static, [True, False])
     assert trajectory.metadata["steps"] == 10 and trajectory.metadata["dt"] == 0.01
     assert trajectory.metadata["stages"] == stages
-    assert stages[:2] == ["forces", "integrate"]
+    assert stages[:3] == ["forces", "contacts", "integrate"]
 
 
 def test_profile_counts_only_this_run():

@@ -140,14 +140,17 @@ def _fatten(i, position, start_position, linear_momentum, inverse_mass, radius, 
 
 @njit
 def tight_bounds(
-    members, box_offset, box_half, radius, position, orientation, start_position, fast, tight
-):
+    members, box_offset, box_half, radius, position, orientation, start_position, fast,
+    thickness, speculative, reach, tight,
+):  # fmt: skip
     """Tight boxes of the bodies ``members`` (m,) int64 into ``tight`` (2, n, 3) [lower, upper].
 
     ``box_offset``, ``box_half`` (n, 3) are each body's mesh-frame box (centre offset o from
     the centre of mass, half-extents h) and ``orientation`` (>= n, 4) its (x, y, z, w)
     orientation; a ``fast`` body's box also covers the sphere's box where it started the step.
-    The other arguments are as in ``update_fat_bounds``.
+    Each box is grown by the speculative margin of its body, the larger of ``speculative``
+    times its ``thickness`` (n,) and ``reach``, so that pairs a margin apart are candidates
+    (see ``convex_contacts``). The other arguments are as in ``update_fat_bounds``.
     """
     R = np.empty((3, 3))
     for k in range(members.shape[0]):
@@ -158,6 +161,10 @@ def tight_bounds(
             for a in range(3):
                 tight[0, i, a] = min(tight[0, i, a], start_position[i, a] - radius[i])
                 tight[1, i, a] = max(tight[1, i, a], start_position[i, a] + radius[i])
+        pad = max(speculative * thickness[i], reach)
+        for a in range(3):
+            tight[0, i, a] -= pad
+            tight[1, i, a] += pad
 
 
 @njit

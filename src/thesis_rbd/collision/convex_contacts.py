@@ -7,7 +7,18 @@ clipped incident face and four corners for a face axis, one point for an edge pa
 the edge axis lies within 0.01 rad of a face beside the edges: a face hanging over another's
 edge, nearly flat, then gets that face's manifold at the edge axis' exact normal and depth).
 Contact points lie midway between the two surfaces; every contact of a pair reports the
-pair's penetration depth, as the mesh path's contacts report their region's.
+pair's penetration depth (minus its gap, for a speculative pair), as the mesh path's contacts
+report their region's: a resting face whose corners straddle the plane by round-off tilt is
+then seated or lifted as a whole, not rocked corner by corner.
+
+Speculative contacts: a pair apart by at most a margin (``SPECULATIVE_FRACTION`` of the
+thinner hull's thickness, or the caller's ``reach`` if more: the distance gravity can close
+in a step) has contacts too, with negative depths (minus the gap), and so have the corners
+of a face within the margin above the other's plane (kept by the clip). Bodies placed
+exactly touching are apart or overlapping by round-off, and a solver's round-off lifts a
+resting body a little; without the margin their contacts would come and go, and a resting
+body would fall a step each time they went.
+The contact stage lets a speculative contact's gap close over the step and no more.
 
 Frame-to-frame coherence: a cache keyed by body pair remembers the axis that separated the
 pair or gave its contact last time, as features (a face of A, a face of B, an edge pair) and
@@ -39,12 +50,20 @@ from thesis_rbd.spatial.quaternion import to_matrix_into
 __all__ = [
     "CACHE_AXIS",
     "SAT_EDGE_PAIRS",
+    "SPECULATIVE_FRACTION",
     "convex_contacts_for_pairs",
     "empty_cache",
     "feature_id",
     "pair_key",
 ]
 
+# Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
+# contacts. A thousandth: far above round-off (bodies placed touching are apart by an ulp)
+# and above the contact solver's position error per step (a thousandth of the slop), the
+# scale of the slop within which the contact stage leaves penetration alone, so that a
+# resting contact is found on either side of touching; and small enough that few pairs
+# merely passing close by become contacts (each costs the solver a row).
+SPECULATIVE_FRACTION = 1e-3
 # Pairs whose edge counts multiply to at most this go through the separating-axis test,
 # larger ones through GJK and EPA: the SAT's cost grows with the product, GJK/EPA's hardly;
 # resting on a box, the SAT was the faster at 576 (a 16-sided cylinder) and GJK/EPA at 1152.
@@ -61,7 +80,7 @@ _FLAT_EDGE_ANGLE = 1e-2
 # Contact corners whose depths differ by less than this fraction of the hulls' sizes are
 # equally deep when four are kept: a face resting on a face, tilted by round-off or by a
 # few micro-radians, keeps its widest four corners whichever way it tilts, instead of
-# flipping between sets as the tilt does. (Every contact reports the pair's depth.)
+# flipping between sets as the tilt does.
 _FLAT = 1e-5
 # Incident faces this close to parallel with the reference face (cosine) are clipped at the
 # reference plane too; tilted ones keep only their corners below it
@@ -120,7 +139,7 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
     """Face of hull h whose outward normal is most nearly along (mx, my, mz) (hull frame):
     a scan over all faces of a small hull, the faces around the support vertex otherwise."""
     (vertex_start, vertices, neighbor_start, neighbors, _, vertex_face_start, vertex_faces,
-     face_start, planes, _, _, _, _, _, _, _, _) = H  # fmt: skip
+     face_start, planes, _, _, _, _, _, _, _, _, _) = H  # fmt: skip
     f0, f1 = face_start[h], face_start[h + 1]
     best, best_face = -np.inf, 0
     if f1 - f0 <= _SCAN_FACES:
@@ -181,15 +200,18 @@ def _gather_loop(H, h, face, R, t, out):
 
 @njit
 def _face_manifold(
-    H, ha, hb, kind, reference_face, R, t, tolerance, flat,
+    H, ha, hb, kind, reference_face, R, t, margin, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
     Ri, ti, out_points, out_depths, out_features, c,
 ):  # fmt: skip
     """Contacts of a face axis into the outputs from row c (world frame); their count.
 
     ``kind`` is FACE_A (reference face on A) or FACE_B; (R, t) maps B into A's frame and
-    (Ri, ti) A into the world. Corners less deep than the deepest by at most ``flat`` are
-    as deep for the choice of four (``four_corners``).
+    (Ri, ti) A into the world. The incident face is kept up to ``margin`` above the
+    reference plane; each contact's depth is its corner's depth below that plane (negative
+    above it). Of more than four corners, the deepest and the three that span the largest
+    area with it are kept (``four_corners``); corners less deep than the deepest by at most
+    ``flat`` are as deep for that choice.
     """
     planes, face_start = H[8], H[7]
     eye = np.eye(3)
@@ -227,11 +249,11 @@ def _face_manifold(
         )
     parallel = -(mx * nx + my * ny + mz * nz) >= _PARALLEL_COSINE
     count = clip_incident_face(
-        reference, k, nx, ny, nz, d, incident, m, parallel, tolerance, points, tags, spare,
-        spare_tags, labels, spare_labels, depths,
+        reference, k, nx, ny, nz, d, incident, m, parallel, margin, tolerance, points, tags,
+        spare, spare_tags, labels, spare_labels, depths,
     )  # fmt: skip
     if count == 0:
-        # no corner of the incident face below the reference plane: the incident hull's
+        # no corner of the incident face below the lifted plane: the incident hull's
         # deepest vertex (its support against the reference normal) is the contact
         count = 1
         tags[0] = _DEEPEST_VERTEX_TAG
@@ -258,7 +280,7 @@ def _face_manifold(
     ):
         kept -= 1
     for q in range(kept):
-        depths[q] = max(d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2]), 0.0)
+        depths[q] = d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2])
     n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
     for r in range(n_keep):
         q = keep[r]
@@ -274,20 +296,21 @@ def _face_manifold(
 
 
 @njit
-def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, scratch):
-    """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``.
+def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch):
+    """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``, exact
+    for separations up to ``margin``.
 
     Pairs of few edges go through the separating-axis test, testing the cached feature
     first; others through GJK and EPA, starting from the cached axis.
     """
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
-     edge_faces, edge_arcs, centroids, sizes) = H  # fmt: skip
+     edge_faces, edge_arcs, centroids, sizes, _) = H  # fmt: skip
     placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch
     tie = _TIE * (sizes[ha] + sizes[hb])
     ea0, ea1 = edge_start[ha], edge_start[ha + 1]
     eb0, eb1 = edge_start[hb], edge_start[hb + 1]
     if (ea1 - ea0) * (eb1 - eb0) > SAT_EDGE_PAIRS:
-        return gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, epa)
+        return gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, margin, epa)
     vb0, vb1 = vertex_start[hb], vertex_start[hb + 1]
     fb0, fb1 = face_start[hb], face_start[hb + 1]
     place_hull(vertices[vb0:vb1], planes[fb0:fb1], edge_arcs[eb0:eb1], R, t,
@@ -298,7 +321,7 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, sc
         edges[ea0:ea1], edge_faces[ea0:ea1], edge_arcs[ea0:ea1], centroids[ha],
         placed_vertices[: vb1 - vb0], placed_planes[: fb1 - fb0],
         edges[eb0:eb1], edge_faces[eb0:eb1], placed_arcs[: eb1 - eb0],
-        cached_kind, cached_i, cached_j, tie, signs_a, signs_b,
+        cached_kind, cached_i, cached_j, tie, margin, signs_a, signs_b,
     )  # fmt: skip
 
 
@@ -327,7 +350,7 @@ def _query_scratch(H):
 @njit
 def convex_contacts_for_pairs(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
-    center_of_mass_local, cache_keys, cache_features, cache_axes,
+    center_of_mass_local, cache_keys, cache_features, cache_axes, speculative, reach,
 ):  # fmt: skip
     """Contacts of candidate pairs of convex bodies, world frame, in one call.
 
@@ -351,6 +374,14 @@ def convex_contacts_for_pairs(
         ``CACHE_AXIS`` a direction only, 0 nothing.
     cache_axes : (k, 3) float64
         That axis, from A towards B, in A's mesh frame.
+    speculative : float
+        Pairs apart by at most this fraction of the thinner hull's thickness get contacts
+        (``SPECULATIVE_FRACTION``), or by at most ``reach`` if that is more; both 0
+        report overlapping and touching pairs only.
+    reach : float
+        Length (>= 0) a body may close in one step whatever its size: the caller's fall
+        under gravity over the step, so that a small body resting on another keeps its
+        contact while a solver's round-off lifts it.
 
     Returns
     -------
@@ -360,8 +391,8 @@ def convex_contacts_for_pairs(
         World contact points (midway between the two surfaces) and unit normals from b
         towards a.
     depths : (c,) float64
-        Penetration depth >= 0 of the pair (the same for all its contacts, as the mesh
-        path's contacts carry their region's depth).
+        The pair's penetration depth along the normal, the same for all its contacts: > 0
+        penetration, < 0 a gap within the speculative margin.
     faces : (c, 2) int64
         -1: hull faces are not mesh triangles.
     features : (c,) int64
@@ -370,7 +401,7 @@ def convex_contacts_for_pairs(
         The new cache: a row per pair, sorted by key.
     """
     H = hull_arrays
-    sizes = H[16]
+    sizes, thicknesses = H[16], H[17]
     p = pairs.shape[0]
     scratch = _query_scratch(H)
     corners = 2 * longest_loop + 2
@@ -414,12 +445,13 @@ def convex_contacts_for_pairs(
         _mesh_frame(i, position, orientation, center_of_mass_local, Ra, ta)
         _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
         _relative_frame(Ra, ta, Rb, tb, R, t)
+        margin = max(speculative * min(thicknesses[ha], thicknesses[hb]), reach)
         kind, fi, fj, separation, ux, uy, uz = _pair_query(
-            H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, scratch
+            H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch
         )
         new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
-        if separation > 0.0:
+        if separation > margin:
             continue
         tolerance = _TIE * (sizes[ha] + sizes[hb])
         flat = _FLAT * (sizes[ha] + sizes[hb])
@@ -431,9 +463,9 @@ def convex_contacts_for_pairs(
             face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
             if face_kind:
                 count, _, _, _ = _face_manifold(
-                    H, ha, hb, face_kind, face, R, t, tolerance, flat, reference, incident, points,
-                    tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta,
-                    out_points, out_depths, out_features, c,
+                    H, ha, hb, face_kind, face, R, t, margin, tolerance, flat, reference,
+                    incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
+                    keep, Ra, ta, out_points, out_depths, out_features, c,
                 )  # fmt: skip
             if count == 0:
                 count = 1
@@ -444,8 +476,8 @@ def convex_contacts_for_pairs(
             nx, ny, nz = -ux, -uy, -uz
         else:
             count, nx, ny, nz = _face_manifold(
-                H, ha, hb, kind, fi, R, t, tolerance, flat, reference, incident, points, tags,
-                spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
+                H, ha, hb, kind, fi, R, t, margin, tolerance, flat, reference, incident, points,
+                tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
                 out_depths, out_features, c,
             )  # fmt: skip
             # against A's outward face normal, along B's
@@ -454,9 +486,6 @@ def convex_contacts_for_pairs(
         wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
         wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
         wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
-        # every contact of the pair carries the pair's penetration depth, as the mesh path's
-        # contacts carry their region's: a resting face whose corners straddle the slop by
-        # round-off tilt is then seated or lifted as a whole, not rocked corner by corner
         for r in range(c, c + count):
             body_a[r], body_b[r] = i, j
             out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz

@@ -238,12 +238,29 @@ def epa_scratch():
 
 
 @njit
-def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance):
+def _thickness(P):
+    """Least height of the tetrahedron P[:4] over its faces: 6 volume / largest face area
+    (doubled)."""
+    ux, uy, uz = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1], P[1, 2] - P[0, 2]
+    vx, vy, vz = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1], P[2, 2] - P[0, 2]
+    wx, wy, wz = P[3, 0] - P[0, 0], P[3, 1] - P[0, 1], P[3, 2] - P[0, 2]
+    volume = abs(ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx))
+    largest = 0.0
+    for i, j, k in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)):
+        ax, ay, az = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1], P[j, 2] - P[i, 2]
+        bx, by, bz = P[k, 0] - P[i, 0], P[k, 1] - P[i, 1], P[k, 2] - P[i, 2]
+        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        largest = max(largest, math.sqrt(nx * nx + ny * ny + nz * nz))
+    return volume / largest if largest > 0.0 else 0.0
+
+
+@njit
+def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance, margin):
     """GJK from the direction -v: (status, vx, vy, vz, bound).
 
-    status 1: separated, every point x of M has x.v >= bound > 0; 0: the origin is inside
-    the tetrahedron P[:4]; -1: touching or degenerate (the origin on M's boundary to
-    round-off).
+    status 1: separated by more than ``margin``, every point x of M has x.v >= bound >
+    margin |v|; 0: the origin is inside the tetrahedron P[:4]; -1: within the margin,
+    touching or degenerate (the origin on M's boundary to round-off).
     """
     n = 0
     start_a, start_b = 0, 0
@@ -252,9 +269,9 @@ def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance):
         _support(H, ha, hb, R, t, -vx, -vy, -vz, start_a, start_b, P, n, ia, ib)
         start_a, start_b = ia[n], ib[n]
         vw = _dot(P, n, vx, vy, vz)
-        if vw > 0.0:
-            return 1, vx, vy, vz, vw
         v2 = vx * vx + vy * vy + vz * vz
+        if vw > 0.0 and vw * vw > margin * margin * v2:
+            return 1, vx, vy, vz, vw
         if n > 0:
             for k in range(n):
                 if ia[k] == ia[n] and ib[k] == ib[n]:
@@ -263,7 +280,9 @@ def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance):
                 return -1, vx, vy, vz, 0.0
         n, vx, vy, vz = _closest_on_simplex(P, ia, ib, n + 1, rows)
         if n == 4:
-            return 0, vx, vy, vz, 0.0
+            # a flat tetrahedron decides nothing: the signs that put the origin inside it
+            # are round-off (the origin may lie off its plane, outside M)
+            return (0 if _thickness(P) > tolerance else -1), vx, vy, vz, 0.0
         if vx * vx + vy * vy + vz * vz <= tolerance2:
             return -1, vx, vy, vz, 0.0
     return -1, vx, vy, vz, 0.0
@@ -401,7 +420,7 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie, px, py, pz):
     """
     (vertex_start, vertices, neighbor_start, neighbors, neighbor_edges, vertex_face_start,
      vertex_faces, face_start, planes, _, _, edge_start, edges, edge_faces, edge_arcs,
-     centroids, _) = H  # fmt: skip
+     centroids, _, _) = H  # fmt: skip
     a0, b0 = vertex_start[ha], vertex_start[hb]
     fa0, fb0 = face_start[ha], face_start[hb]
     ea0, eb0 = edge_start[ha], edge_start[hb]
@@ -501,10 +520,10 @@ def _distinct(a, b, c):
 
 
 @njit
-def _sat_fallback(H, ha, hb, R, t, tie):
+def _sat_fallback(H, ha, hb, R, t, tie, margin):
     """The separating-axis test on a pair GJK or EPA could not settle (touching, flat)."""
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
-     edge_faces, edge_arcs, centroids, _) = H  # fmt: skip
+     edge_faces, edge_arcs, centroids, _, _) = H  # fmt: skip
     va0, va1 = vertex_start[ha], vertex_start[ha + 1]
     vb0, vb1 = vertex_start[hb], vertex_start[hb + 1]
     fa0, fa1 = face_start[ha], face_start[ha + 1]
@@ -520,12 +539,13 @@ def _sat_fallback(H, ha, hb, R, t, tie):
         vertices[va0:va1], planes[fa0:fa1], edges[ea0:ea1], edge_faces[ea0:ea1],
         edge_arcs[ea0:ea1], centroids[ha],
         placed_vertices, placed_planes, edges[eb0:eb1], edge_faces[eb0:eb1], placed_arcs,
-        0, 0, 0, tie, np.empty((fa1 - fa0, eb1 - eb0)), np.empty((ea1 - ea0, fb1 - fb0)),
+        0, 0, 0, tie, margin, np.empty((fa1 - fa0, eb1 - eb0)),
+        np.empty((ea1 - ea0, fb1 - fb0)),
     )  # fmt: skip
 
 
 @njit
-def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
+def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, margin, scratch):
     """Axis of least penetration or a separating axis of hulls A and B, by GJK and EPA.
 
     Parameters
@@ -539,6 +559,9 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
         zero for none.
     tie : float
         Separations closer than this count as equal (see ``sat_query``).
+    margin : float
+        Separations up to this are wanted exactly (see ``sat_query``): a pair that GJK does
+        not separate by more goes to the separating-axis test.
     scratch : tuple
         ``epa_scratch()``.
 
@@ -546,7 +569,7 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
     -------
     kind, i, j, separation, ux, uy, uz
         As ``sat_query``; a separating direction found by GJK has kind ``CACHE_AXIS`` and a
-        positive lower bound of the separation.
+        lower bound of the separation above ``margin``.
     """
     centroids, sizes = H[15], H[16]
     va, vb, faces, planes = scratch[1], scratch[2], scratch[3], scratch[4]
@@ -561,7 +584,9 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
         if vx * vx + vy * vy + vz * vz == 0.0:
             vx = 1.0
     tolerance = _EPA_TOLERANCE * (sizes[ha] + sizes[hb])
-    status, vx, vy, vz, bound = _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance)
+    status, vx, vy, vz, bound = _gjk(
+        H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance, margin
+    )
     if status == 1:
         length = math.sqrt(vx * vx + vy * vy + vz * vz)
         return CACHE_AXIS, 0, 0, bound / length, -vx / length, -vy / length, -vz / length
@@ -575,4 +600,4 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, scratch):
             # EPA bounds the depth from both sides: the features must reach that depth
             if -result[3] <= planes[face, 3] + 2.0 * tolerance + tie:
                 return result
-    return _sat_fallback(H, ha, hb, R, t, tie)
+    return _sat_fallback(H, ha, hb, R, t, tie, margin)

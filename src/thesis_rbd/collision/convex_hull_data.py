@@ -29,6 +29,7 @@ from scipy.spatial import ConvexHull as _Qhull
 from scipy.spatial import QhullError
 
 from thesis_rbd._jit import njit
+from thesis_rbd.geometry.width import hull_thickness
 
 __all__ = ["CONVEXITY_TOLERANCE", "ConvexHull", "HullSet", "convex_hull", "is_convex"]
 
@@ -65,6 +66,9 @@ class ConvexHull:
         Mean of the vertices, an interior point.
     size : float
         Largest distance of a vertex from ``centroid``: the length tolerances scale with.
+    thickness : float
+        Least width over the face normals (``geometry.width.hull_thickness``): the length
+        the speculative contact margin scales with.
     """
 
     vertices: np.ndarray
@@ -80,6 +84,7 @@ class ConvexHull:
     edge_faces: np.ndarray
     centroid: np.ndarray
     size: float
+    thickness: float
 
 
 def _qhull(points: np.ndarray):
@@ -255,6 +260,7 @@ def convex_hull(mesh) -> ConvexHull:
         edge_faces=np.ascontiguousarray(edge_faces, dtype=np.int64),
         centroid=centroid,
         size=size,
+        thickness=hull_thickness(vertices),
     )
 
 
@@ -278,7 +284,7 @@ class HullSet:
     edges, edge_faces : (E, 2) int64
     edge_arcs : (E, 3) float64
         n2 x n1 for the normals n1, n2 of an edge's two faces: the normal of its Gauss arc.
-    centroids : (h, 3) float64 and sizes : (h,) float64
+    centroids : (h, 3) float64, sizes : (h,) float64 and thicknesses : (h,) float64
     """
 
     def __init__(self, tolerance: float = CONVEXITY_TOLERANCE):
@@ -345,6 +351,7 @@ class HullSet:
         )  # fmt: skip
         self.centroids = stacked([h.centroid[None] for h in hulls], (3,), np.float64)
         self.sizes = np.array([h.size for h in hulls], dtype=np.float64)
+        self.thicknesses = np.array([h.thickness for h in hulls], dtype=np.float64)
         loops_per_face = np.diff(self.loop_start)
         self.longest_loop = int(loops_per_face.max()) if len(loops_per_face) else 0
 
@@ -368,4 +375,5 @@ class HullSet:
             self.edge_arcs,
             self.centroids,
             self.sizes,
+            self.thicknesses,
         )

@@ -3,10 +3,12 @@
 For a face contact the reference face is the face whose normal is the contact axis; the
 incident face is the other hull's face most opposed to it. The incident polygon is clipped
 (Sutherland-Hodgman) against the side planes of the reference face, one per reference edge,
-and, if the two faces are within 0.01 rad of parallel, against the reference plane itself,
-which leaves the part of the incident face that lies over the reference face and below its
-plane: the contact polygon. A tilted incident face keeps only its corners below the plane
-(a vertex pressed into a face is one contact, at the vertex). Each of its corners is an
+and, if the two faces are within 0.01 rad of parallel, against the reference plane itself
+lifted by the speculative margin, which leaves the part of the incident face that lies over
+the reference face and below the lifted plane: the contact polygon, whose corners above the
+reference plane are speculative contacts (negative depth, a gap that may close). A tilted
+incident face keeps only its corners below the lifted plane (a vertex pressed into a face
+is one contact, at the vertex). Each of its corners is an
 incident vertex or the crossing of an incident edge (or an earlier clip line) with a clip
 plane, and is tagged so: the tag, with the two faces, names the corner's features, and stays
 the same from step to step while they do.
@@ -73,23 +75,28 @@ def _clip(src, src_tag, src_label, count, distance, plane, dst, dst_tag, dst_lab
 
 @njit
 def clip_incident_face(
-    reference, reference_count, nx, ny, nz, d, incident, incident_count, parallel, tolerance,
-    points, tags, spare, spare_tags, labels, spare_labels, distance,
+    reference, reference_count, nx, ny, nz, d, incident, incident_count, parallel, margin,
+    tolerance, points, tags, spare, spare_tags, labels, spare_labels, distance,
 ):  # fmt: skip
-    """The part of the incident polygon over the reference face and below its plane.
+    """The part of the incident polygon over the reference face and below its plane
+    lifted by ``margin``.
 
-    Nearly ``parallel`` faces are clipped at the reference plane too, so the polygon keeps
-    its corners where the incident face dips below the plane; a tilted incident face keeps
-    only its corners at or below the plane (a vertex pressed into a face is one point, not
-    the vertex and two crossings of its face's edges, which would spin a ball landing on
-    it). Distances within ``tolerance`` of a clip plane count as on it, so faces flush with
-    a side of the reference face keep their corners.
+    Nearly ``parallel`` faces are clipped at the lifted reference plane too, so the polygon
+    keeps its corners where the incident face comes within the margin of the plane; a tilted
+    incident face keeps only its corners at or below the lifted plane (a vertex pressed into
+    a face is one point, not the vertex and two crossings of its face's edges, which would
+    spin a ball landing on it). The margin makes faces a small gap apart (or touching, their
+    corners a round-off above the plane) clip as faces pressed together do. Distances within
+    ``tolerance`` of a clip plane count as on it, so faces flush with a side of the
+    reference face keep their corners.
 
     Parameters
     ----------
     reference : (>= k, 3) float64
         The reference face's corners, counter-clockwise seen along its outward normal
         (nx, ny, nz); its plane is n.x = d.
+    margin : float
+        How far above the reference plane (>= 0) the incident face is kept.
     incident : (>= m, 3) float64
         The incident face's corners, in loop order.
     points, spare : (>= m + k + 1, 3) float64 scratch; tags, spare_tags, labels,
@@ -122,7 +129,7 @@ def clip_incident_face(
             sx, sy, sz = sx / length, sy / length, sz / length
             sd = sx * reference[e, 0] + sy * reference[e, 1] + sz * reference[e, 2]
         elif parallel:
-            sx, sy, sz, sd = nx, ny, nz, d
+            sx, sy, sz, sd = nx, ny, nz, d + margin
         else:
             break
         # a plane with every corner inside (the reference face's far sides, for a small
@@ -142,7 +149,8 @@ def clip_incident_face(
             break
     kept = 0
     for k in range(count):
-        if not parallel and (nx * src[k, 0] + ny * src[k, 1] + nz * src[k, 2] - d > tolerance):
+        gap = nx * src[k, 0] + ny * src[k, 1] + nz * src[k, 2] - d
+        if not parallel and gap > margin + tolerance:
             continue
         points[kept] = src[k]
         tags[kept] = src_tag[k]

@@ -82,15 +82,15 @@ def face_separation(planes, f, vertices, count):
 
 
 @njit
-def _face_query(planes, vertices, count):
+def _face_query(planes, vertices, count, margin):
     """(largest separation, its face) over all faces of ``planes`` against ``vertices``;
-    returns at the first separating face."""
+    returns at the first face separating by more than ``margin``."""
     best, best_face = -np.inf, -1
     for f in range(planes.shape[0]):
         s = face_separation(planes, f, vertices, count)
         if s > best:
             best, best_face = s, f
-            if s > 0.0:
+            if s > margin:
                 break
     return best, best_face
 
@@ -149,7 +149,7 @@ def _arc_signs(planes, face_count, arcs, edge_count, out, by_edge):
 def sat_query(
     vertices_a, planes_a, edges_a, faces_a, arcs_a, centroid_a,
     vertices_b, planes_b, edges_b, faces_b, arcs_b,
-    cached_kind, cached_i, cached_j, tie, signs_a, signs_b,
+    cached_kind, cached_i, cached_j, tie, margin, signs_a, signs_b,
 ):  # fmt: skip
     """Separating-axis test of hull A against hull B, both in A's frame.
 
@@ -164,6 +164,10 @@ def sat_query(
     tie : float
         Separations closer than this count as equal: a face of A wins over a face of B and a
         face over an edge pair unless beaten by more, so round-off does not flip features.
+    margin : float
+        Separations up to this (>= 0) are wanted: an axis separating by more ends the test
+        at once, one separating by less does not, so that for a pair within the margin the
+        greatest separation over all candidates is found.
     signs_a, signs_b : (>= f_a, >= e_b) and (>= e_a, >= f_b) float64 scratch
 
     Returns
@@ -172,34 +176,35 @@ def sat_query(
         Axis: ``FACE_A`` (face i of A), ``FACE_B`` (face i of B) or ``EDGES`` (edge i of
         A with edge j of B).
     separation : float
-        > 0: the hulls are apart along it; <= 0: minus the penetration depth.
+        > 0: the hulls are apart along it (the greatest separation if at most ``margin``);
+        <= 0: minus the penetration depth.
     ux, uy, uz : float
         The axis, pointing from A towards B (A's frame).
     """
     va, vb = vertices_a.shape[0], vertices_b.shape[0]
     if cached_kind == FACE_A and cached_i < planes_a.shape[0]:
         s = face_separation(planes_a, cached_i, vertices_b, vb)
-        if s > 0.0:
+        if s > margin:
             return FACE_A, cached_i, 0, s, planes_a[cached_i, 0], planes_a[cached_i, 1], \
                 planes_a[cached_i, 2]  # fmt: skip
     elif cached_kind == FACE_B and cached_i < planes_b.shape[0]:
         s = face_separation(planes_b, cached_i, vertices_a, va)
-        if s > 0.0:
+        if s > margin:
             return FACE_B, cached_i, 0, s, -planes_b[cached_i, 0], -planes_b[cached_i, 1], \
                 -planes_b[cached_i, 2]  # fmt: skip
     elif cached_kind == EDGES and cached_i < edges_a.shape[0] and cached_j < edges_b.shape[0]:
         s, ux, uy, uz = edge_pair_separation(
             vertices_a, edges_a, cached_i, centroid_a, vertices_b, edges_b, cached_j, -np.inf
         )
-        if s > 0.0:
+        if s > margin:
             return EDGES, cached_i, cached_j, s, ux, uy, uz
 
-    sep_a, face_a = _face_query(planes_a, vertices_b, vb)
-    if sep_a > 0.0:
+    sep_a, face_a = _face_query(planes_a, vertices_b, vb, margin)
+    if sep_a > margin:
         return FACE_A, face_a, 0, sep_a, planes_a[face_a, 0], planes_a[face_a, 1], \
             planes_a[face_a, 2]  # fmt: skip
-    sep_b, face_b = _face_query(planes_b, vertices_a, va)
-    if sep_b > 0.0:
+    sep_b, face_b = _face_query(planes_b, vertices_a, va, margin)
+    if sep_b > margin:
         return FACE_B, face_b, 0, sep_b, -planes_b[face_b, 0], -planes_b[face_b, 1], \
             -planes_b[face_b, 2]  # fmt: skip
 
@@ -228,7 +233,7 @@ def sat_query(
                 )
                 if s > sep_e:
                     sep_e, edge_a, edge_b, ex, ey, ez = s, i, j, ux, uy, uz
-                    if s > 0.0:
+                    if s > margin:
                         return EDGES, i, j, s, ux, uy, uz
 
     if sep_b > sep_a + tie:

@@ -23,7 +23,11 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
-from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
+from thesis_rbd.collision.convex_contacts import (
+    SPECULATIVE_FRACTION,
+    convex_contacts_for_pairs,
+    empty_cache,
+)
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
@@ -102,6 +106,7 @@ class CollisionPipeline:
         self.box_half = np.zeros((0, 3))
         self.sap = SweepAndPrune()
         self.tight = np.zeros((2, 0, 3))
+        self._reach = 0.0
         self.fat = np.zeros((2, 0, 3))
         self._fast = np.zeros(0, bool)
         self.fat_pairs = np.zeros((0, 2), np.int64)
@@ -130,7 +135,7 @@ class CollisionPipeline:
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
         self.box_half = np.vstack([self.box_half, 0.5 * (upper - lower)])
 
-    def plan(self, static: np.ndarray, collidable: np.ndarray) -> None:
+    def plan(self, static: np.ndarray, collidable: np.ndarray, reach: float = 0.0) -> None:
         """Take the bodies as they are now; the next ``bounds`` fits every box afresh.
 
         Parameters
@@ -139,8 +144,12 @@ class CollisionPipeline:
             Immovable bodies: a pair of two of them is never a candidate.
         collidable : (n,) bool
             Bodies inside collision detection: no pair of the others is a candidate.
+        reach : float
+            Gap (>= 0) that any convex pair gets speculative contacts across, whatever the
+            bodies' sizes (see ``convex_contacts``): the world's fall in one step.
         """
         n = len(static)
+        self._reach = float(reach)
         self._static = static.copy()
         self._may_pair = collidable.copy()
         if self.tight.shape[1] != n:
@@ -286,12 +295,14 @@ class CollisionPipeline:
         b = bodies
         tight_bounds(
             members, self.box_offset, self.box_half, b.full("size"), b.full("position"),
-            b.full("orientation"), self._start_position, self._fast, out,
+            b.full("orientation"), self._start_position, self._fast, b.full("thickness"),
+            SPECULATIVE_FRACTION, self._reach, out,
         )  # fmt: skip
 
     def narrow_phase(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
-        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``);
-        the convex pairs' coherence cache is kept for the next step."""
+        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``;
+        convex pairs a small gap apart have speculative contacts, depth < 0); the convex
+        pairs' coherence cache is kept for the next step."""
         return self._contacts(bodies, pairs, keep_cache=True)
 
     def _convex_pairs(self, pairs: np.ndarray) -> np.ndarray:
@@ -307,16 +318,19 @@ class CollisionPipeline:
             bodies.full("center_of_mass_local"),
         )
         convex = self._convex_pairs(pairs)
-        # the contact kernel decides, so this answer and contacts_of agree; tunnelling and
-        # time-of-impact searches ask about a few pairs only
+        # the contact kernel decides without its speculative margin (overlap or touch), so
+        # this answer and contacts_of agree; tunnelling and time-of-impact searches ask
+        # about a few pairs only
         if convex.any() and len(
             convex_contacts_for_pairs(
                 np.ascontiguousarray(pairs[convex]),
                 self.hull_of_body,
-                self.hulls.arrays(),
+                self._hull_arrays,
                 self.hulls.longest_loop,
                 *state,
                 *self.convex_cache,
+                0.0,
+                0.0,
             )[4]
         ):
             return True
@@ -345,10 +359,13 @@ class CollisionPipeline:
             bodies.full("center_of_mass_local"),
         )
         if self._every_body_convex:
+            self.stats["convex_pairs"] = len(pairs)
             return self._convex_contacts(pairs, state, keep_cache)
         if not self._any_body_convex:
+            self.stats["convex_pairs"] = 0
             return self._mesh_contacts(pairs, state)
         convex = self._convex_pairs(pairs)
+        self.stats["convex_pairs"] = int(convex.sum())
         parts = [
             self._mesh_contacts(np.ascontiguousarray(pairs[~convex]), state),
             self._convex_contacts(np.ascontiguousarray(pairs[convex]), state, keep_cache),
@@ -371,7 +388,7 @@ class CollisionPipeline:
         """Contacts of convex pairs by the convex kernel, with its coherence cache."""
         *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
             pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
-            *self.convex_cache,
+            *self.convex_cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
         if keep_cache:
             self.convex_cache = (cache_keys, cache_features, cache_axes)
