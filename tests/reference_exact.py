@@ -160,9 +160,7 @@ def tri_box_exact(V, h) -> bool:
     if any(segment_meets_box_exact(V[i], V[(i + 1) % 3], h) for i in range(3)):
         return True
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
-    box_edges = [
-        (i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1
-    ]
+    box_edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
     t, c = _as_integers(V.tolist(), corners.tolist())
     return any(_segment_meets_triangle(c[i], c[j], t) for i, j in box_edges)
 

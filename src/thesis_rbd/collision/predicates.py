@@ -16,8 +16,9 @@ decides at random. Here each sign is exact for the float64 coordinates given:
   the sign of the exact sum is the sign of its largest component. The exact routines are
   separate kernels, compiled once and only called when the filter cannot decide.
 
-Exactness assumes no overflow or underflow in the products: coordinate differences between
-about 1e-70 and 1e70 in magnitude (or exactly zero), far beyond any mesh.
+Exactness, of the filter's bound as of the expansions, assumes that no product of three
+coordinate differences (nor its rounding error) overflows or underflows: nonzero differences
+between about 1e-80 and 1e90 in magnitude, far beyond the range of any mesh.
 Both rely on IEEE round-to-nearest-even without fused or reassociated arithmetic, which is the
 package's numba policy (no ``fastmath``).
 """
