@@ -2,7 +2,7 @@
 
 Real scenes put parts face to face: stacked, packed, side by side. Each part here (flat faces:
 a box, a thin plate, an L-bracket, a hexagonal prism, a cylinder, a plate with a sliver
-triangle) meets a copy of itself
+triangle, a box carrying zero-area faces) meets a copy of itself
 placed flush against one of its faces (shifted sideways so the faces overlap in part), pushed
 1e-12 of its size into it, or pulled 1e-12 to 1e-3 of its size away; the pair is left as
 placed, or turned as a whole by a random rotation (so that B's corners in A's frame carry
@@ -47,6 +47,18 @@ def _hexagon(radius):
     return np.column_stack([np.cos(angles), np.sin(angles)]) * radius
 
 
+def _with_zero_area_faces(mesh):
+    """The mesh plus faces real files carry: a segment along each edge of face 0 (through a
+    vertex at the edge's midpoint), a repeated-vertex face and a point face."""
+    V = np.asarray(mesh.vertices)
+    F = np.asarray(mesh.faces)
+    a, b, c = F[0]
+    mids = 0.5 * (V[[a, b, c]] + V[[b, c, a]])
+    n = len(V)
+    extra = [(a, n, b), (b, n + 1, c), (c, n + 2, a), (a, a, b), (c, c, c)]
+    return rbd.TriangleMesh(np.vstack([V, mids]), np.vstack([F, extra]))
+
+
 PARTS = {
     "box": rbd.shapes.box((1.0, 0.5, 0.25)),
     "plate": rbd.shapes.box((1.0, 0.75, 1.0 / 64)),
@@ -58,6 +70,7 @@ PARTS = {
     # CAD tessellations leave slivers: a vertex 1e-13 off a straight edge makes a cap
     # triangle of height 1e-13 and a wall kinked by as much.
     "sliver_plate": extruded([(0, 0), (0.5, -1e-13), (1, 0), (1, 1), (0, 1)], 0.125),
+    "box_with_zero_area_faces": _with_zero_area_faces(rbd.shapes.box((1.0, 0.5, 0.25))),
 }
 # Parts that certainly meet their copy when pushed in: planar faces at every extreme, still
 # overlapping when the copy is shifted sideways or turned about the face's centre (the prism
