@@ -211,3 +211,27 @@ def test_flush_faces_report_every_corner_of_their_overlap(angle):
     on_face = contacts.points[np.abs(contacts.points[:, 2] - 0.125) <= 1e-12]
     for corner in corners:
         assert np.linalg.norm(on_face[:, :2] - corner, axis=1).min() <= 1e-9
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_flush_copy_stored_far_from_its_mesh_origin(seed):
+    """B's vertices stored 1e3..1e6 away from its mesh origin, its pose bringing them back
+    flush against A (stored near its origin, so A's boxes are tight): B's corners carried into
+    A's box frames carry rounding of that size, far above the boxes' padding, which the
+    triangle-box test must absorb (no touching pair culled)."""
+    rng = np.random.default_rng(seed)
+    part = PARTS[("hex_prism", "box", "L_bracket")[seed % 3]]
+    far = rng.normal(size=3) * 10.0 ** rng.uniform(3, 6)
+    stored_far = rbd.TriangleMesh(part.vertices + far, part.faces)
+    leafless = bool(seed % 2)
+    tree_a = rbd.OBBTree(part, leafless=leafless)
+    tree_b = rbd.OBBTree(stored_far, leafless=leafless)
+    back = np.eye(4)
+    back[:3, 3] = -far
+    for axis in range(3):
+        for turn in ("none", "whole"):
+            T_a, T_b = placement(part, axis, 0.0, turn, seed)
+            T_b = T_b @ back
+            want = exact_pairs(part, T_a, stored_far, T_b)
+            got = rbd.collide(tree_a, T_a, tree_b, T_b, mode="all").pairs
+            np.testing.assert_array_equal(got, want)

@@ -39,10 +39,6 @@ _MODES = ("first", "all", "contacts")
 # intersection polyline's corners are shared by neighbouring triangle pairs; see contacts.py).
 MERGE_FRACTION = 1e-6
 
-# Bound on the rounding of B's corners carried into a box frame, relative to the magnitudes of
-# the corner, the translation and the box centre (64 units of rounding; the error is under 20).
-_TRANSFORM_SLACK = 2.0**-46
-
 
 class CollisionResult:
     """Outcome of :func:`collide`.
@@ -239,16 +235,13 @@ def _tri_in_box(V, F, t, R, tr, c, rot, h, k):
     v2 = _corner_moved(V, F, t, 2, Q, qt)
     # The triangle test sees the corners mapped by (R, tr) alone; mapped into the box frame
     # in one step they differ from those by rounding, at most a few units of the magnitudes
-    # involved. The box grows by a bound on that, so no triangle it meets is culled.
-    corner = 0.0
-    for j in range(3):
-        i = F[t, j]
-        corner = max(corner, abs(V[i, 0]) + abs(V[i, 1]) + abs(V[i, 2]))
-    size = corner + abs(tr[0]) + abs(tr[1]) + abs(tr[2]) + abs(ck[0]) + abs(ck[1]) + abs(ck[2])
-    grow = _TRANSFORM_SLACK * size
-    return tri_box_overlap(
-        v0, v1, v2, (float(h[k, 0]) + grow, float(h[k, 1]) + grow, float(h[k, 2]) + grow)
+    # involved: the corner (whose length is about that of v - qt), tr and the box centre.
+    reach = (
+        2.0 * (abs(qt[0]) + abs(qt[1]) + abs(qt[2]))
+        + (abs(tr[0]) + abs(tr[1]) + abs(tr[2]))
+        + (abs(ck[0]) + abs(ck[1]) + abs(ck[2]))
     )
+    return tri_box_overlap(v0, v1, v2, (float(h[k, 0]), float(h[k, 1]), float(h[k, 2])), reach)
 
 
 @njit

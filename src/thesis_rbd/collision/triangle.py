@@ -36,9 +36,10 @@ from thesis_rbd.collision.predicates import orient2d, orient3d, orient3d_inline,
 
 __all__ = ["tri_box_overlap", "tri_tri_overlap", "triangle_box_overlap", "triangles_overlap"]
 
-# Relative slack of the triangle-box test: 32 units of rounding of the largest coordinate,
-# above the error of a projection (3 roundings per dot product plus the radius's own).
-_BOX_SLACK = 2.0**-48
+# Relative slack of the triangle-box test: 64 units of rounding of the magnitudes involved,
+# above the error of a projection (3 roundings per dot product plus the radius's own) and of
+# a rigid transform of the corners (under 20 units; see tri_box_overlap).
+_BOX_SLACK = 2.0**-46
 
 
 @njit
@@ -254,7 +255,7 @@ def _box_separated(axis, v0, v1, v2, h):
 
 
 @njit
-def tri_box_overlap(v0, v1, v2, h):
+def tri_box_overlap(v0, v1, v2, h, reach):
     """Conservative closed triangle / axis-aligned box overlap test (Akenine-Möller 2001).
 
     Parameters
@@ -263,26 +264,31 @@ def tri_box_overlap(v0, v1, v2, h):
         Triangle corners in the box frame (box centred at the origin, axes = coordinate axes).
     h : tuple of 3 float
         Box half-extents (>= 0).
+    reach : float
+        Magnitude of what the corners were computed from, if they carry rounding (0 for
+        exact corners): the box grows by a bound on that rounding too (see ``_tri_in_box``
+        in :mod:`.collide`).
 
     Returns
     -------
     bool
         True if the triangle and the box share a point, and possibly (a false overlap) if
-        they are within about 4e-15 of the largest coordinate or half-extent of each other;
-        never False for a triangle that meets the box.
+        they are within about 1e-14 of ``3 max(|corner|, h) + reach`` of each other; never
+        False for a triangle that meets the box.
     """
-    size = max(h[0], h[1], h[2])
-    for v in (v0, v1, v2):
-        size = max(size, abs(v[0]), abs(v[1]), abs(v[2]))
+    lo0 = min(v0[0], v1[0], v2[0])
+    hi0 = max(v0[0], v1[0], v2[0])
+    lo1 = min(v0[1], v1[1], v2[1])
+    hi1 = max(v0[1], v1[1], v2[1])
+    lo2 = min(v0[2], v1[2], v2[2])
+    hi2 = max(v0[2], v1[2], v2[2])
+    size = max(max(h[0], h[1], h[2]), max(-lo0, hi0), max(-lo1, hi1), max(-lo2, hi2))
     # The box grown by the slack: any axis's computed gap then exceeds its rounding error.
-    slack = _BOX_SLACK * size
+    slack = _BOX_SLACK * (3.0 * size + reach)
     g = (h[0] + slack, h[1] + slack, h[2] + slack)
     # Box face normals: the triangle's own bounding box against the box.
-    for k in range(3):
-        lo = min(v0[k], v1[k], v2[k])
-        hi = max(v0[k], v1[k], v2[k])
-        if lo > g[k] or hi < -g[k]:
-            return False
+    if lo0 > g[0] or hi0 < -g[0] or lo1 > g[1] or hi1 < -g[1] or lo2 > g[2] or hi2 < -g[2]:
+        return False
     e0 = sub(v1, v0)
     e1 = sub(v2, v1)
     e2 = sub(v0, v2)
@@ -311,4 +317,6 @@ def triangles_overlap(P, Q):
 @njit
 def triangle_box_overlap(V, h):
     """Array form of :func:`tri_box_overlap`: ``V`` (3, 3) corners in the box frame, ``h`` (3,)."""
-    return tri_box_overlap(vec(V, 0), vec(V, 1), vec(V, 2), (float(h[0]), float(h[1]), float(h[2])))
+    return tri_box_overlap(
+        vec(V, 0), vec(V, 1), vec(V, 2), (float(h[0]), float(h[1]), float(h[2])), 0.0
+    )
