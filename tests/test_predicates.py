@@ -58,13 +58,18 @@ def lattice_points(draw, count, dim):
 
 
 def _nudge(draw, pts):
-    """Move one coordinate of one point by one ulp, or not at all."""
+    """Move one coordinate of one point by one ulp, or not at all (a zero coordinate by one
+    ulp of the largest one: a subnormal would leave the predicates' domain)."""
     k = draw(st.integers(-1, len(pts) * len(pts[0]) - 1))
     if k < 0:
         return pts
     pts = [p.copy() for p in pts]
     i, j = divmod(k, len(pts[0]))
-    pts[i][j] = np.nextafter(pts[i][j], draw(st.sampled_from([-np.inf, np.inf])))
+    direction = draw(st.sampled_from([-1.0, 1.0]))
+    if pts[i][j] == 0.0:
+        pts[i][j] = direction * np.spacing(max(np.abs(np.array(pts)).max(), 1e-30))
+    else:
+        pts[i][j] = np.nextafter(pts[i][j], direction * np.inf)
     return pts
 
 
