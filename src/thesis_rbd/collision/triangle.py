@@ -25,7 +25,8 @@ the 9 box axis x triangle edge products), made *conservative*: an axis separates
 gap exceeds a bound on the rounding of the projections, so the answer is never "apart" for a
 triangle that meets the box.
 
-Corners are passed as ``(x, y, z)`` tuples so the kernels allocate nothing.
+Corners are passed as ``(x, y, z)`` tuples so the common path allocates nothing (only the
+predicates' exact fallback does).
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     -------
     bool
         True if the triangles share at least one point (touching counts), exactly for these
-        float64 corners. Degenerate triangles (segments, points) are allowed.
+        float64 corners (within the predicates' range: no product of coordinate differences
+        under- or overflows). Degenerate triangles (segments, points) are allowed.
     """
     # Sides of P's corners against Q's plane (all 0 if Q is flat), and of Q's against P's.
     s0, s1, s2 = plane_sides(q0, q1, q2, p0, p1, p2)
