@@ -29,6 +29,7 @@ from types import ModuleType
 from validation.studies import (
     collision_modes,
     contact_benchmarks,
+    contact_formulations,
     dzhanibekov,
     effects_benchmarks,
     fcl_crosscheck,
@@ -40,6 +41,8 @@ from validation.studies import (
     obb_vs_aabb,
     obbtree_benchmarks,
     obbtree_variants,
+    query_benchmarks,
+    query_costs,
     sap_benchmarks,
     stability_suite,
 )
@@ -61,7 +64,10 @@ STUDIES: dict[str, ModuleType] = {
         impact_handling,
         lcp_vs_pgs,
         stability_suite,
+        contact_formulations,
         obbtree_benchmarks,
+        query_costs,
+        query_benchmarks,
         sap_benchmarks,
         contact_benchmarks,
     )
