@@ -113,6 +113,39 @@ def test_load_mesh_round_trips_through_trimesh(tmp_path, suffix):
     )
 
 
+def _with_seams(mesh, seed):
+    """A trimesh copy whose every face has its own corners, with random texture coordinates
+    and flat-shading normals: each vertex is split along texture and normal seams."""
+    import trimesh
+
+    split = mesh.to_trimesh()
+    split.unmerge_vertices()
+    uv = np.random.default_rng(seed).uniform(size=(len(split.vertices), 2))
+    split.visual = trimesh.visual.TextureVisuals(uv=uv)
+    split.vertex_normals = np.repeat(split.face_normals, 3, axis=0)
+    return split
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".glb", ".ply"])
+@pytest.mark.parametrize(
+    "source", [rbd.shapes.box((1.0, 2.0, 0.5)), rbd.shapes.icosphere(0.7, 2)], ids=["box", "sphere"]
+)
+def test_textured_models_with_seams_load_closed(tmp_path, suffix, source):
+    import trimesh
+
+    path = tmp_path / f"model{suffix}"
+    _with_seams(source, 0).export(path)
+    # The file really holds the seams: read as stored, the surface is open.
+    stored = trimesh.load(path, force="mesh", process=False)
+    assert len(stored.vertices) == 3 * len(source.faces)
+    loaded = rbd.load_mesh(path)
+    assert loaded.is_closed and loaded.is_consistently_oriented
+    assert len(loaded.vertices) == len(source.vertices)
+    np.testing.assert_allclose(
+        rbd.mass_properties(loaded).volume, rbd.mass_properties(source).volume, rtol=1e-6
+    )
+
+
 def test_load_mesh_errors(tmp_path):
     with pytest.raises(ValueError, match="not found"):
         rbd.load_mesh(tmp_path / "missing.obj")

@@ -1,16 +1,25 @@
-"""Triangle-triangle and triangle-box kernels against plain-Python SAT and LP oracles."""
+"""Triangle-triangle and triangle-box kernels against exact, plain-Python SAT and LP oracles.
+
+The triangle-triangle test is exact for the float64 corners it is given, so every answer must
+equal the exact oracles' (``reference.tri_tri_sat`` with Fractions, ``reference_exact``'s edge
+against triangle test in integers), touching, coplanar and degenerate pairs included.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference import examples, tri_box_lp, tri_tri_lp, tri_tri_sat
+from reference_exact import tri_box_exact, tri_tri_exact
+from scipy.spatial.transform import Rotation
 
 from thesis_rbd.collision.triangle import triangle_box_overlap, triangles_overlap
 
-coord = st.floats(-2.0, 2.0, allow_nan=False, width=64)
+# The predicates are exact while no product of coordinate differences underflows (see
+# predicates.py): magnitudes below 1e-30 are drawn as zero.
+coord = st.floats(-2.0, 2.0, allow_nan=False, width=64).map(lambda x: 0.0 if abs(x) < 1e-30 else x)
 triangle = st.lists(coord, min_size=9, max_size=9).map(lambda v: np.array(v).reshape(3, 3))
 small_int = st.integers(-3, 3)
 int_triangle = st.lists(small_int, min_size=9, max_size=9).map(
@@ -25,10 +34,7 @@ degenerate_triangle = st.one_of(
 @settings(max_examples=examples(300))
 @given(P=triangle, Q=triangle)
 def test_tri_tri_matches_sat_reference(P, Q):
-    overlap, margin = tri_tri_sat(P, Q, exact=True)
-    if abs(margin) < 1e-9:
-        return  # touching: decided by rounding, in the kernel as in any float test
-    assert triangles_overlap(P, Q) == overlap
+    assert triangles_overlap(P, Q) == tri_tri_sat(P, Q, exact=True)[0]
 
 
 @settings(max_examples=examples(60))
@@ -237,13 +243,133 @@ def test_round_off_flat_triangle_meets_a_box_around_its_middle():
 
 
 @given(st.integers(0, 2**32 - 1), st.floats(-1.0, 2.0))
-def test_nearly_collinear_triangles_against_the_sat_reference(seed, t):
-    """Corners on a line plus round-off-sized noise, against random triangles; cases within
-    1e-9 of touching are left to the exact-arithmetic tests above."""
+def test_nearly_collinear_triangles_against_the_exact_oracle(seed, t):
+    """Corners on a line plus round-off-sized noise, against random triangles."""
     rng = np.random.default_rng(seed)
     a, b = rng.normal(size=(2, 3))
     flat = np.array([a, b, a + t * (b - a)]) + rng.normal(scale=1e-16, size=(3, 3))
     Q = rng.normal(size=(3, 3)) * 0.7
-    overlap, margin = tri_tri_sat(flat, Q)
-    assume(abs(margin) > 1e-9)
-    assert triangles_overlap(flat, Q) == overlap
+    assert triangles_overlap(flat, Q) == tri_tri_exact(flat, Q)
+
+
+# ---------------------------------------------------------------- exact pairs in any pose
+# Pairs built where floating-point tests fail (shared corners and edges, bitwise; coplanar
+# triangles touching, overlapping or apart; segments and points), then moved: either by an
+# exact motion (axis permutation, sign flips, a power-of-two scale, a lattice translation),
+# which keeps every coincidence exact, or by a random rotation, a scale of 1e-6..1e6 and a
+# translation, whose rounding leaves coincidences broken by an ulp or kept (shared corners
+# are moved by the same operations, so they stay bitwise shared). Whatever the result, the
+# kernel must answer as exact arithmetic on the final floats does.
+PAIR_KINDS = (
+    "general",
+    "shared_corner",
+    "shared_edge",
+    "coplanar",
+    "coplanar_shared",
+    "segment",
+    "point",
+    "both_flat",
+)
+
+
+def _lattice_plane(rng, count):
+    """``count`` integer points on a random integer plane (small coefficients)."""
+    o = rng.integers(-4, 5, size=3)
+    u, v = rng.integers(-2, 3, size=(2, 3))
+    while not np.cross(u, v).any():
+        u, v = rng.integers(-2, 3, size=(2, 3))
+    coeff = rng.integers(-3, 4, size=(count, 2))
+    return (o + coeff[:, :1] * u + coeff[:, 1:] * v).astype(float)
+
+
+def _flat(rng, pts, kind):
+    """A segment (collinear corners, maybe repeated) or a point, from lattice points."""
+    a, b = pts[0], pts[1]
+    if kind == "point":
+        return np.array([a, a, a])
+    t = rng.integers(-1, 3)
+    return rng.permutation(np.array([a, b, a + t * (b - a)]))
+
+
+def make_pair(kind, seed):
+    """(P, Q) of the given kind, before any motion."""
+    rng = np.random.default_rng(seed)
+    if kind == "general":
+        return rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    if kind in ("shared_corner", "shared_edge"):
+        P = rng.normal(size=(3, 3))
+        Q = rng.normal(size=(3, 3))
+        shared = 1 if kind == "shared_corner" else 2
+        Q[rng.permutation(3)[:shared]] = P[rng.permutation(3)[:shared]]
+        if rng.random() < 0.3:  # the third corner in P's plane (up to rounding)
+            w = rng.normal(size=2)
+            Q[2 if shared == 2 else 1] = P[0] + w[0] * (P[1] - P[0]) + w[1] * (P[2] - P[0])
+        return P, Q
+    pts = _lattice_plane(rng, 6)
+    if kind == "coplanar":
+        return pts[:3], pts[3:]
+    if kind == "coplanar_shared":
+        P, Q = pts[:3], pts[3:].copy()
+        Q[rng.integers(3)] = P[rng.integers(3)]
+        return P, Q
+    off_plane = rng.random() < 0.5
+    other = rng.integers(-4, 5, size=(3, 3)).astype(float) if off_plane else pts[3:]
+    if kind == "both_flat":
+        return _flat(rng, pts[:3], "segment"), _flat(rng, other, rng.choice(["segment", "point"]))
+    return _flat(rng, pts[:3], kind), other
+
+
+def move(pts, seed, exact):
+    """Apply one motion to the (n, 3) points (see above)."""
+    rng = np.random.default_rng(seed)
+    if exact:
+        signs = rng.choice([-1.0, 1.0], size=3)
+        moved = pts[:, rng.permutation(3)] * signs
+        return (moved + rng.integers(-8, 9, size=3)) * 2.0 ** int(rng.integers(-20, 21))
+    R = Rotation.random(random_state=rng).as_matrix()
+    scale = 10.0 ** rng.uniform(-6, 6)
+    return (pts @ R.T) * scale + rng.normal(size=3) * scale * rng.uniform(0, 10)
+
+
+@settings(max_examples=examples(600), deadline=None)
+@given(kind=st.sampled_from(PAIR_KINDS), seed=st.integers(0, 2**32 - 1), exact=st.booleans())
+def test_tri_tri_equals_exact_oracle_in_any_pose(kind, seed, exact):
+    P, Q = make_pair(kind, seed)
+    moved = move(np.vstack([P, Q]), seed + 1, exact)
+    P, Q = moved[:3], moved[3:]
+    want = tri_tri_exact(P, Q)
+    assert triangles_overlap(P, Q) == want
+    assert triangles_overlap(Q, P) == want
+    assert triangles_overlap(P[[1, 2, 0]], Q[[0, 2, 1]]) == want
+
+
+@settings(max_examples=examples(60), deadline=None)
+@given(kind=st.sampled_from(PAIR_KINDS), seed=st.integers(0, 2**32 - 1), exact=st.booleans())
+def test_the_two_exact_oracles_agree(kind, seed, exact):
+    P, Q = make_pair(kind, seed)
+    moved = move(np.vstack([P, Q]), seed + 1, exact)
+    assert tri_tri_exact(moved[:3], moved[3:]) == tri_tri_sat(moved[:3], moved[3:], exact=True)[0]
+
+
+@settings(max_examples=examples(200), deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), exact=st.booleans())
+def test_tri_box_never_separates_a_triangle_that_meets_the_box(seed, exact):
+    """The culling test is conservative: it may keep a triangle within a rounding-sized
+    distance of the box, never drop one that meets it (touching corners, edges, faces)."""
+    rng = np.random.default_rng(seed)
+    h = rng.integers(1, 4, size=3).astype(float)
+    # Corners on the box's surface lattice or just around it, often exactly touching.
+    V = rng.integers(-4, 5, size=(3, 3)).astype(float) / 2.0
+    on_face = rng.integers(3)
+    V[rng.integers(3), on_face] = rng.choice([-1.0, 1.0]) * h[on_face]
+    scale = 2.0 ** int(rng.integers(-20, 21))
+    if not exact:
+        scale *= rng.uniform(0.5, 2.0)
+        V = V + rng.normal(size=(3, 3)) * 1e-15 * np.abs(V).max()
+    V, h = V * scale, h * scale
+    got = triangle_box_overlap(V, h)
+    if tri_box_exact(V, h):
+        assert got
+    if got:
+        size = max(np.abs(V).max(), h.max())
+        assert tri_box_exact(V, h + 1e-13 * size)

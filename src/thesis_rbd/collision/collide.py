@@ -172,7 +172,15 @@ def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
     v0 = corner_moved(P, L, t, 0, Q, qt)
     v1 = corner_moved(P, L, t, 1, Q, qt)
     v2 = corner_moved(P, L, t, 2, Q, qt)
-    return tri_box_overlap(v0, v1, v2, half_extent(Pk, Lk, k))
+    # The triangle test sees the corners mapped by (R, tr) alone; mapped into the box frame
+    # in one step they differ from those by rounding, at most a few units of the magnitudes
+    # involved: the corner (whose length is about that of v - qt), tr and the box centre.
+    reach = (
+        2.0 * (abs(qt[0]) + abs(qt[1]) + abs(qt[2]))
+        + (abs(tr[0]) + abs(tr[1]) + abs(tr[2]))
+        + (abs(ck[0]) + abs(ck[1]) + abs(ck[2]))
+    )
+    return tri_box_overlap(v0, v1, v2, half_extent(Pk, Lk, k), reach)
 
 
 @njit

@@ -7,10 +7,15 @@ For every intersecting triangle pair (a of mesh A, b of mesh B):
 * **Points**: the end points of the pair's intersection segment. In the generic case (the
   triangles cross, neither is degenerate) this is Möller's construction: the segment where
   each triangle meets the other's plane, both on the line of the two planes, overlapped; each
-  end point is an edge of one mesh crossing a face of the other. Coplanar pairs and pairs with
-  a degenerate triangle give one point instead: the midpoint of the closest pair of features
-  (edge-edge, corner-face, edge through face), which for touching triangles lies on both.
-  Every point therefore lies on both triangles, up to rounding.
+  end point is an edge of one mesh crossing a face of the other, or a corner lying on the
+  other's plane (touching triangles: a face resting on an edge gives that edge's part on the
+  face). Coplanar pairs (flush faces) give the corners of their overlap polygon, at most six.
+  Pairs with a degenerate (zero-area) triangle give one point: the midpoint of the closest
+  pair of features (edge-edge, corner-face, edge through face), which for touching triangles
+  lies on both. Which case applies, and which corners lie on the other's plane, is decided by
+  the exact predicates of :mod:`.predicates`, so touching and flush pairs are never taken
+  for crossing ones; the points themselves are placed in floating point and lie on both
+  triangles up to rounding.
 * **Normal and depth**: the feature pair of least penetration, as in the thesis (5.2): the
   candidates are the face of b (vertex-face, normal = b's outward normal), the face of a
   (normal = minus a's normal) and the 9 edge-edge directions ``e_a x e_b`` (oriented to point
@@ -46,6 +51,8 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision._vec3 import add, cross, dot, lerp, matvec, norm, scale, sub
+from thesis_rbd.collision.predicates import orient2d, plane_sides
+from thesis_rbd.collision.triangle import _drop, _projection
 
 __all__ = ["Contacts", "cluster_points", "compute_contacts", "merge_contacts"]
 
@@ -241,18 +248,21 @@ def _closest_features_midpoint(p, q):
 
 
 @njit
-def _plane_section(p, ids, n, o):
+def _plane_section(p, ids, n, o, sides):
     """Where triangle p meets the plane (n, through o): up to 2 points and their count.
 
-    Crossing points are computed from the edge's endpoints in increasing vertex-id order, so a
-    neighbouring triangle sharing the edge gets the bitwise-same point.
+    ``sides`` are the exact sides of p's corners (:func:`.predicates.plane_sides`): they
+    decide which corners lie on the plane and which edges cross it; the float distances
+    along n only place the crossing points. These are computed from the edge's end points
+    in increasing vertex-id order, so a neighbouring triangle sharing the edge gets the
+    bitwise-same point.
     """
     d = (dot(n, sub(p[0], o)), dot(n, sub(p[1], o)), dot(n, sub(p[2], o)))
     out0 = p[0]
     out1 = p[0]
     count = 0
     for i in range(3):
-        if d[i] == 0.0:
+        if sides[i] == 0:
             if count == 0:
                 out0 = p[i]
             else:
@@ -260,32 +270,101 @@ def _plane_section(p, ids, n, o):
             count += 1
     for i in range(3):
         j = (i + 1) % 3
-        if (d[i] > 0.0 and d[j] < 0.0) or (d[i] < 0.0 and d[j] > 0.0):
+        if sides[i] * sides[j] < 0:
             lo = i if ids[i] < ids[j] else j
             hi = j if lo == i else i
-            x = lerp(p[lo], p[hi], d[lo] / (d[lo] - d[hi]))
+            x = lerp(p[lo], p[hi], _crossing(d[lo], d[hi]))
             if count == 0:
                 out0 = x
             else:
                 out1 = x
             count += 1
-    return out0, out1, min(count, 2), d
+    return out0, out1, min(count, 2)
 
 
 @njit
-def _pair_points(p, q, ida, idb):
-    """Intersection-segment end points of two intersecting triangles: (x0, x1, count)."""
+def _crossing(da, db):
+    """Parameter in [0, 1] where a linear function with end values da, db (of opposite exact
+    signs) vanishes; rounding of the values near touching is clamped."""
+    if da == db:
+        return 0.5
+    return min(max(da / (da - db), 0.0), 1.0)
+
+
+@njit
+def _coplanar_polygon(p, q, k, out, spare):
+    """Corners of the overlap of coplanar proper triangles p and q: q clipped by each edge
+    line of p (Sutherland-Hodgman), the inside tests decided exactly in the projection
+    along coordinate k (:func:`.triangle._projection`), the new corners placed by float
+    interpolation in 3D. Writes at most 6 corners into ``out`` (9, 3); returns the count.
+    """
+    a = (_drop(p[0], k), _drop(p[1], k), _drop(p[2], k))
+    o = orient2d(a[0], a[1], a[2])
+    for i in range(3):
+        for c in range(3):
+            out[i, c] = q[i][c]
+    n = 3
+    poly = out
+    other = spare
+    swapped = False
+    for e in range(3):
+        u = a[e]
+        v = a[(e + 1) % 3]
+        m = 0
+        for i in range(n):
+            x = (poly[i, 0], poly[i, 1], poly[i, 2])
+            j = (i + 1) % n
+            y = (poly[j, 0], poly[j, 1], poly[j, 2])
+            x2 = _drop(x, k)
+            y2 = _drop(y, k)
+            sx = orient2d(u, v, x2) * o
+            sy = orient2d(u, v, y2) * o
+            if sx >= 0:
+                other[m, 0], other[m, 1], other[m, 2] = x
+                m += 1
+            if sx * sy < 0:
+                fx = (v[0] - u[0]) * (x2[1] - u[1]) - (v[1] - u[1]) * (x2[0] - u[0])
+                fy = (v[0] - u[0]) * (y2[1] - u[1]) - (v[1] - u[1]) * (y2[0] - u[0])
+                other[m, 0], other[m, 1], other[m, 2] = lerp(x, y, _crossing(fx, fy))
+                m += 1
+        poly, other = other, poly
+        swapped = not swapped
+        n = m
+        if n == 0:
+            break
+    if swapped:
+        for i in range(n):
+            for c in range(3):
+                out[i, c] = poly[i, c]
+    return n
+
+
+@njit
+def _pair_points(p, q, ida, idb, out, spare):
+    """Intersection points of two intersecting triangles, written into ``out``; their count.
+
+    Crossing triangles give the two end points of their intersection segment (one if it
+    is a point), coplanar ones the corners of their overlap polygon (at most 6), and pairs
+    with a flat triangle the midpoint of their closest features. Which case applies, and
+    which corners lie on the other's plane, is decided exactly.
+    """
+    kp, _ = _projection(p[0], p[1], p[2])
+    kq, _ = _projection(q[0], q[1], q[2])
+    if kp < 0 or kq < 0:
+        return _one_point(_closest_features_midpoint(p, q), out)
+    sp = plane_sides(q[0], q[1], q[2], p[0], p[1], p[2])
+    if sp[0] == 0 and sp[1] == 0 and sp[2] == 0:
+        count = _coplanar_polygon(p, q, kq, out, spare)
+        if count == 0:
+            return _one_point(_closest_features_midpoint(p, q), out)
+        return count
+    sq = plane_sides(p[0], p[1], p[2], q[0], q[1], q[2])
     na = cross(sub(p[1], p[0]), sub(p[2], p[1]))
     nb = cross(sub(q[1], q[0]), sub(q[2], q[1]))
-    a0, a1, ka, da = _plane_section(p, ida, nb, q[0])
-    b0, b1, kb, db = _plane_section(q, idb, na, p[0])
-    degenerate = _is_flat(p, na) or _is_flat(q, nb)
-    coplanar = (da[0] == 0.0 and da[1] == 0.0 and da[2] == 0.0) or (
-        db[0] == 0.0 and db[1] == 0.0 and db[2] == 0.0
-    )
-    if degenerate or coplanar or ka == 0 or kb == 0:
-        x = _closest_features_midpoint(p, q)
-        return x, x, 1
+    a0, a1, ka = _plane_section(p, ida, nb, q[0], sp)
+    b0, b1, kb = _plane_section(q, idb, na, p[0], sq)
+    if ka == 0 or kb == 0:
+        return _one_point(_closest_features_midpoint(p, q), out)
     if ka == 1:
         a1 = a0
     if kb == 1:
@@ -307,11 +386,18 @@ def _pair_points(p, q, ida, idb):
     shi = min(sa1, sb1)
     if slo > shi:
         # Rounding made the two sections miss by a hair: report the point between them.
-        x = scale(add(lo, hi), 0.5)
-        return x, x, 1
+        return _one_point(scale(add(lo, hi), 0.5), out)
     if lo == hi:
-        return lo, lo, 1
-    return lo, hi, 2
+        return _one_point(lo, out)
+    out[0, 0], out[0, 1], out[0, 2] = lo
+    out[1, 0], out[1, 1], out[1, 2] = hi
+    return 2
+
+
+@njit
+def _one_point(x, out):
+    out[0, 0], out[0, 1], out[0, 2] = x
+    return 1
 
 
 @njit
@@ -337,13 +423,16 @@ def compute_contacts(pairs, Va, Fa, Vb, Fb, Rab, tab):
         Unit, from B towards A.
     depths : (c,) float64
     faces : (c, 2) int64
-        Before merging; up to two contacts per pair (see module docstring).
+        Before merging; up to two contacts per pair, six for a coplanar pair (see module
+        docstring).
     """
     k = pairs.shape[0]
-    points = np.empty((2 * k, 3))
-    normals = np.empty((2 * k, 3))
-    depths = np.empty(2 * k)
-    faces = np.empty((2 * k, 2), dtype=np.int64)
+    points = np.empty((6 * k, 3))
+    normals = np.empty((6 * k, 3))
+    depths = np.empty(6 * k)
+    faces = np.empty((6 * k, 2), dtype=np.int64)
+    corners = np.empty((9, 3))
+    spare = np.empty((9, 3))
     tr = (tab[0], tab[1], tab[2])
     c = 0
     for r in range(k):
@@ -362,12 +451,11 @@ def compute_contacts(pairs, Va, Fa, Vb, Fb, Rab, tab):
         ida = (Fa[fa, 0], Fa[fa, 1], Fa[fa, 2])
         idb = (Fb[fb, 0], Fb[fb, 1], Fb[fb, 2])
         u, depth = least_penetration(p[0], p[1], p[2], q[0], q[1], q[2])
-        x0, x1, count = _pair_points(p, q, ida, idb)
+        count = _pair_points(p, q, ida, idb, corners, spare)
         for i in range(count):
-            x = x0 if i == 0 else x1
-            points[c, 0] = x[0]
-            points[c, 1] = x[1]
-            points[c, 2] = x[2]
+            points[c, 0] = corners[i, 0]
+            points[c, 1] = corners[i, 1]
+            points[c, 2] = corners[i, 2]
             normals[c, 0] = u[0]
             normals[c, 1] = u[1]
             normals[c, 2] = u[2]

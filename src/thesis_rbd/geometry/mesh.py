@@ -180,7 +180,7 @@ def load_mesh(path: str | Path) -> TriangleMesh:
     ----------
     path : str or Path
         The mesh file; scenes with several geometries are concatenated into one mesh, and
-        coincident vertices are welded.
+        coincident vertices are welded, also across texture and normal seams.
 
     Raises
     ------
@@ -198,7 +198,9 @@ def load_mesh(path: str | Path) -> TriangleMesh:
         raise ValueError(f"cannot read mesh file {path}: {exc}") from exc
     if not hasattr(loaded, "faces") or len(loaded.faces) == 0:
         raise ValueError(f"mesh file {path} holds no triangles")
-    # STL and some OBJ exports store each triangle's corners separately; weld identical
-    # corners so that a closed surface reads as closed (no face is removed or reordered).
-    loaded.merge_vertices()
+    # STL and some OBJ exports store each triangle's corners separately, and textured models
+    # (OBJ, glTF, PLY) duplicate every vertex on a texture or normal seam; weld coincident
+    # corners whatever their texture coordinates and normals, so that a closed surface reads
+    # as closed (no face is removed or reordered).
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return TriangleMesh.from_trimesh(loaded)
