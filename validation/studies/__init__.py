@@ -42,6 +42,7 @@ from validation.studies import (
     obbtree_variants,
     sap_benchmarks,
     stability_suite,
+    startup,
 )
 
 __all__ = ["STUDIES", "get_study"]
@@ -64,6 +65,7 @@ STUDIES: dict[str, ModuleType] = {
         obbtree_benchmarks,
         sap_benchmarks,
         contact_benchmarks,
+        startup,
     )
 }
 
