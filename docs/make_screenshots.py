@@ -5,14 +5,15 @@
 from the root of a source checkout, with headless Chromium installed (``apt-get install
 chromium``). Writes ``live_view.png`` and ``playback.png`` into FOLDER (``docs/`` by default):
 
-- ``thesis-rbd view pyramid`` in a subprocess, opened in the browser once the pyramid has
-  settled, with the top cube clicked so that the panel shows its state;
+- ``thesis-rbd view dominoes`` in a subprocess, opened in the browser, paused while the row
+  falls, with a domino clicked so that the panel shows its state;
 - the playback page of ``thesis-rbd run tori_demo --html`` (contacts recorded), paused while
   the tori cut through each other.
 """
 
 from __future__ import annotations
 
+import itertools
 import re
 import socket
 import subprocess
@@ -48,9 +49,16 @@ def _free_port() -> int:
         return probe.getsockname()[1]
 
 
+def _click_button(browser, label: str) -> None:
+    browser.evaluate(
+        "[...document.querySelectorAll('button')]"
+        f".find(b => b.textContent.trim() === '{label}').click()"
+    )
+
+
 def live_view(path: Path) -> None:
-    """The pyramid in the live view, settled, its top cube's state in the panel."""
-    command = [sys.executable, "-m", "thesis_rbd.cli", "view", "pyramid"]
+    """The dominoes in the live view, paused mid-fall, a domino's state in the panel."""
+    command = [sys.executable, "-m", "thesis_rbd.cli", "view", "dominoes", "--paused"]
     process = subprocess.Popen(
         [*command, "--port", str(_free_port())], stdout=subprocess.PIPE, text=True
     )
@@ -66,14 +74,13 @@ def live_view(path: Path) -> None:
             browser.open(url)
             rect = canvas_rect(browser)
             hide_notifications(browser)
-            browser.wait_for(
-                "/t = ([2-9]|[1-9][0-9])[.]/.test(document.body.innerText)", timeout=300
-            )
-            # the top cube of the pyramid is the highest body: click the top of the picture's
-            # middle column until the panel shows a body
-            x = rect["left"] + 0.5 * rect["width"]
-            for fraction in (0.30, 0.35, 0.40, 0.45, 0.50):
-                y = rect["top"] + fraction * rect["height"]
+            _click_button(browser, "Play")
+            browser.wait_for("/t = (0[.]9|[1-9][.])/.test(document.body.innerText)", 300)
+            _click_button(browser, "Pause")
+            # click along the row of dominoes until a moving body answers (not the floor)
+            for row, column in itertools.product((0.47, 0.5, 0.44, 0.53), (0.5, 0.45, 0.55, 0.4)):
+                x = rect["left"] + column * rect["width"]
+                y = rect["top"] + row * rect["height"]
                 for kind in ("mousePressed", "mouseReleased"):
                     browser.call(
                         "Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1

@@ -37,7 +37,9 @@ def test_clock_lets_go_of_time_it_cannot_catch_up():
     late_wall = 2 * FALLING_BEHIND_SECONDS
     assert clock.steps_due(0.0, late_wall) == 1 and clock.behind
     # the clock starts again from where the world is: nothing more is due at once
-    assert clock.steps_due(0.0, late_wall) == 0
+    assert clock.steps_due(0.0, late_wall) == 0 and clock.behind
+    # keeping up for more than a second clears the flag
+    assert clock.steps_due(1.5, late_wall + 1.5) == 0 and not clock.behind
 
 
 def test_stage_timings_are_per_step_and_shares_of_the_staged_time():

@@ -33,6 +33,8 @@ class RunStatus:
         What the progress bar counts.
     after_seconds : float
         The progress bar appears once the work has lasted this long.
+    console : rich.console.Console, optional
+        Where to show it; stderr by default.
 
     Notes
     -----
@@ -47,12 +49,13 @@ class RunStatus:
         enabled: bool = True,
         unit: str = "steps",
         after_seconds: float = PROGRESS_AFTER_SECONDS,
+        console=None,
     ):
         from rich.console import Console
 
         self.label, self.enabled = label, enabled
         self.unit, self.after_seconds = unit, after_seconds
-        self.console = Console(stderr=True)
+        self.console = Console(stderr=True) if console is None else console
         self.terminal = self.console.is_terminal
         self.start = perf_counter()
         self.display = None

@@ -39,6 +39,7 @@ PANEL_SECONDS = 0.25  # how often the text of the panel is refreshed
 TIMING_WINDOW_SECONDS = 1.0  # the stage timings cover the steps of the last second
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x", "as fast as it goes")
 FALLING_BEHIND_SECONDS = 0.25  # further behind the wall clock than this, the clock lets go
+KEPT_UP_SECONDS = 1.0  # no longer "falling behind" once it has kept up this long
 
 
 class PlaybackClock:
@@ -54,7 +55,8 @@ class PlaybackClock:
     While playing at speed s, simulated time is due to reach t0 + s (w - w0), where t0 and w0
     are the simulated and wall times when play last started or the speed last changed. A
     world that cannot keep up drops the time it is behind instead of racing to catch up, so
-    that it plays on smoothly at the speed it manages (:attr:`behind` says so).
+    that it plays on smoothly at the speed it manages (:attr:`behind` says so until it has
+    kept up for a second).
     """
 
     def __init__(self, dt: float):
@@ -62,6 +64,7 @@ class PlaybackClock:
         self.speed: float | None = 1.0  # None: as fast as it goes
         self._anchor: tuple[float, float] | None = None
         self.behind = False
+        self._fell_behind = -np.inf
 
     def start(self, simulated: float, wall: float) -> None:
         """Play from simulated time ``simulated`` at wall time ``wall``."""
@@ -79,9 +82,11 @@ class PlaybackClock:
         target = start_simulated + self.speed * (wall - start_wall)
         late = target - simulated
         if late > FALLING_BEHIND_SECONDS * self.speed:
-            self.behind = True
+            self.behind, self._fell_behind = True, wall
             self._anchor = (simulated, wall)
             return 1
+        if late < self.dt and wall - self._fell_behind > KEPT_UP_SECONDS:
+            self.behind = False
         return max(int(np.floor(late / self.dt + 1e-9)), 0)
 
 
@@ -213,7 +218,7 @@ class LiveView:
         self.reset_button = gui.add_button("Reset")
         self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1x")
         self.show_contacts = gui.add_checkbox("Contacts", True)
-        self.timing = gui.add_markdown("")
+        self.timing = gui.add_markdown("Stage timings appear once the world steps.")
         self.body_state = gui.add_markdown("*Click a body to see its state.*")
         self.play_button.on_click(lambda _event: self._toggle_play())
         self.step_button.on_click(lambda _event: self._request(steps=1))
@@ -377,8 +382,7 @@ class LiveView:
         (wall0, before, steps0), (wall1, after, steps1) = self._timings[0], self._timings[-1]
         steps = steps1 - steps0
         if steps <= 0:
-            self.timing.content = "Stage timings: no steps in the last second."
-            return
+            return  # paused: the timings of the last steps taken stay on show
         per_second = steps / (wall1 - wall0) if wall1 > wall0 else 0.0
         lines = [
             f"Stage timings over the last {steps} steps ({per_second:.0f} steps/s):",

@@ -182,7 +182,7 @@ class BodyNodes:
         normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         self.contact_points.points = points.astype(np.float32)
         self.contact_normals.points = np.stack(
-            [points, points + 0.08 * self.size * normals], axis=1
+            [points, points + 0.04 * self.size * normals], axis=1
         ).astype(np.float32)
         self.contact_points.visible = True
         self.contact_normals.visible = True
