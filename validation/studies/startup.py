@@ -10,6 +10,9 @@ them. Each case starts fresh Python processes, as a user's shell would:
   :mod:`validation.startup_probe`) for the time spent compiling and per kernel;
 - warm starts: the same command again, on the cache the cold start filled (the fastest of a
   few), which is what every later run costs;
+- ``thesis-rbd warmup`` on an empty cache, then every built-in scene for its own length, each
+  in a fresh process on that cache, counting what they still compile (nothing, if the warm-up
+  does its job); full scale only;
 - the test suite (full scale only): ``pytest`` on an empty cache, then again on the cache it
   filled.
 
@@ -63,6 +66,7 @@ def cases(scale: str) -> list[Case]:
         for scene in scenes
     ]
     if scale == "full":
+        work.append(Case(NAME, {"kind": "warmup"}, timed=True))
         work.append(Case(NAME, {"kind": "test_suite"}, timed=True))
     return work
 
@@ -71,6 +75,8 @@ def run(params: dict) -> dict:
     """Time the starts of one case in fresh processes."""
     if params["kind"] == "test_suite":
         return _test_suite()
+    if params["kind"] == "warmup":
+        return _warmup_then_scenes()
     return _scene_starts(params["scene"], params["seconds"], params["cold"], params["warm_runs"])
 
 
@@ -137,6 +143,37 @@ def _scene_starts(scene: str, seconds: float, cold: bool, warm_runs: int) -> dic
             compiles=first["compiles"],
         )
     return result
+
+
+def _warmup_then_scenes() -> dict:
+    """Time the warm-up on an empty cache, then count what full runs still compile."""
+    import thesis_rbd as rbd
+
+    with tempfile.TemporaryDirectory(prefix="thesis-rbd-startup-") as temporary:
+        folder = Path(temporary)
+        cache = folder / "numba-cache"
+        cpu_start, start = _children_cpu_seconds(), perf_counter()
+        finished = subprocess.run(
+            [sys.executable, "-m", "thesis_rbd.cli", "warmup", "--quiet"],
+            env=_environment(cache),
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        wall, cpu = perf_counter() - start, _children_cpu_seconds() - cpu_start
+        if finished.returncode != 0:
+            raise RuntimeError(f"thesis-rbd warmup failed: {finished.stderr[-2000:]}")
+        after = {
+            name: _probe(name, rbd.scenes.get(name).seconds, cache, folder)
+            for name in rbd.scenes.names()
+        }
+    return {
+        "warmup_seconds": wall,
+        "warmup_cpu_seconds": cpu,
+        "compiled_after": {name: record["kernels_compiled"] for name, record in after.items()},
+        "runs_after": {name: record["wall_seconds"] for name, record in after.items()},
+    }
 
 
 def _pytest_once(cache: Path) -> dict:
@@ -210,6 +247,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
     warms = [row["warm"] for row in rows]
     kernels = _slowest_kernels(scene_records)
     suite = next((r["result"] for r in records if r["params"]["kind"] == "test_suite"), None)
+    warmup = next((r["result"] for r in records if r["params"]["kind"] == "warmup"), None)
     summary = {
         "seconds": RUN_SECONDS,
         "budget": {
@@ -226,12 +264,20 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "compiled_signatures": len(kernels),
         "slowest_kernels": kernels[:SLOWEST_KERNELS],
         "test_suite": suite,
+        "warmup": None
+        if warmup is None
+        else {
+            "seconds": warmup["warmup_seconds"],
+            "cpu_seconds": warmup["warmup_cpu_seconds"],
+            "compiled_after": sum(warmup["compiled_after"].values()),
+            "slowest_run_after": max(warmup["runs_after"].values()),
+        },
     }
     tables = [
         Table(
             caption=f"thesis-rbd run SCENE --seconds {format_number(RUN_SECONDS)}, each in a "
             "fresh process: cold (empty numba cache) and warm (the cache the cold start filled, "
-            "fastest of the warm runs); budget {format_number(COLD_BUDGET_SECONDS)} s cold, "
+            f"fastest of the warm runs); budget {format_number(COLD_BUDGET_SECONDS)} s cold, "
             f"{format_number(WARM_BUDGET_SECONDS)} s warm",
             columns=[
                 "scene",
