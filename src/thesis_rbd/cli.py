@@ -306,7 +306,9 @@ def view(
     ] = builtin_scenes.DEFAULT,
     port: Annotated[
         int,
-        typer.Option("--port", "-p", help="Port to serve on (the next free one if taken).", min=0),
+        typer.Option(
+            "--port", "-p", help="Port to serve on (the next free one if taken).", min=0, max=65535
+        ),
     ] = 8080,
     host: Annotated[
         str,
@@ -327,25 +329,27 @@ def view(
 
         require_viser()
         loaded = resolve_scene(scene)
-        from thesis_rbd.viz.live import LiveView
+    from thesis_rbd.viz.live import LiveView
 
-        status = RunStatus(loaded.name)
-        try:
+    status = RunStatus(loaded.name)
+    live = None
+    try:
+        with _reported_errors():
             live = LiveView(
                 loaded, host=host, port=port, playing=not paused, on_compile=status.compiling
             )
-        except BaseException:
-            status.close()
-            raise
-    typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
-    try:
+        typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
         live.run()
     except KeyboardInterrupt:
         pass  # Ctrl-C is how the view is meant to end
     finally:
         status.close()
-        live.close()
-    typer.echo(f"thesis-rbd view: stopped at t = {live.world.time:.3f} s after {live.steps} steps")
+        if live is not None:
+            live.close()
+    if live is not None:
+        typer.echo(
+            f"thesis-rbd view: stopped at t = {live.world.time:.3f} s after {live.steps} steps"
+        )
 
 
 @app.command()
