@@ -96,3 +96,14 @@ def test_status_says_it_once_on_one_line_elsewhere_and_nothing_when_quiet():
     quiet(5, 10)
     quiet.close()
     assert silent.getvalue() == ""
+
+
+def test_warmup_ranks_kernels_by_own_time_summed_over_signatures():
+    from thesis_rbd.compile_log import KernelCompile
+    from thesis_rbd.warmup import slowest_kernels
+
+    def record(name, own):
+        return KernelCompile(name, "(float64)", own + 1.0, own, own, own, 0)
+
+    ranked = slowest_kernels([record("a", 2.0), record("b", 3.0), record("a", 1.5)])
+    assert ranked == [("a", 2, 3.5), ("b", 1, 3.0)]

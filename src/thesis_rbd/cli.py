@@ -173,8 +173,8 @@ def _summary(
     if log.records:
         staged_wall = max(wall_seconds - ledger.compiling_wall, 0.0)
         lines.append(
-            f"  compiling kernels, first run only: {log.seconds:.3f} s for {log.kernel_count} "
-            "kernels (numba caches them for later runs)"
+            f"  compiling kernels, first run only: {log.seconds:.3f} s for "
+            f"{_kernels(log.kernel_count)} (numba caches them for later runs)"
         )
         if ledger.compiling_steps:
             lines.append(
@@ -361,7 +361,7 @@ def warmup(
     Runs each built-in scene for a simulated second and the collision queries once; numba keeps
     what it compiles in its cache. Reports each part's time and the slowest kernels.
     """
-    from thesis_rbd.warmup import warm_up, warmup_tasks
+    from thesis_rbd.warmup import slowest_kernels, warm_up, warmup_tasks
 
     tasks = warmup_tasks()
     status = RunStatus("warm-up", enabled=not quiet, unit="parts", after_seconds=0.0)
@@ -397,21 +397,20 @@ def warmup(
         )
     )
     if compiles:
-        own: dict[str, list[float]] = {}
-        for record in compiles:
-            own.setdefault(record.name, []).append(record.own_seconds)
-        ranked = sorted(own.items(), key=lambda item: sum(item[1]), reverse=True)
         typer.echo(f"  {'slowest kernels to compile (own time)':<64}{'seconds':>9}")
-        for name, seconds in ranked[:WARMUP_SLOWEST]:
+        for name, signatures, seconds in slowest_kernels(compiles)[:WARMUP_SLOWEST]:
             label = name.removeprefix("thesis_rbd.") + (
-                f" ({len(seconds)} signatures)" if len(seconds) > 1 else ""
+                f" ({signatures} signatures)" if signatures > 1 else ""
             )
-            typer.echo(f"  {label:<64}{sum(seconds):>9.2f}")
+            typer.echo(f"  {label:<64}{seconds:>9.2f}")
+
+
+def _kernels(count: int) -> str:
+    return f"{count} kernel{'' if count == 1 else 's'}"
 
 
 def _compiled(records) -> str:
-    kernels = len({record.name for record in records})
-    return f"compiled {kernels} kernel{'' if kernels == 1 else 's'}"
+    return f"compiled {_kernels(len({record.name for record in records}))}"
 
 
 @app.command()

@@ -18,7 +18,7 @@ import numpy as np
 
 from thesis_rbd.compile_log import CompileLog, KernelCompile
 
-__all__ = ["WarmupResult", "WarmupTask", "warm_up", "warmup_tasks"]
+__all__ = ["WarmupResult", "WarmupTask", "slowest_kernels", "warm_up", "warmup_tasks"]
 
 SCENE_SECONDS = 1.0
 
@@ -121,3 +121,17 @@ def warm_up(
         if on_end is not None:
             on_end(result)
     return results
+
+
+def slowest_kernels(records: list[KernelCompile]) -> list[tuple[str, int, float]]:
+    """Kernels by decreasing own compile time, summed over their signatures.
+
+    Returns
+    -------
+    list of (name, signatures, seconds)
+    """
+    own: dict[str, list[float]] = {}
+    for record in records:
+        own.setdefault(record.name, []).append(record.own_seconds)
+    ranked = sorted(own.items(), key=lambda item: sum(item[1]), reverse=True)
+    return [(name, len(seconds), sum(seconds)) for name, seconds in ranked]
