@@ -239,6 +239,16 @@ def test_html_without_viser_says_how_to_install_it(tmp_path, monkeypatch):
     assert view.exit_code == 1 and "pip install viser" in view.output
 
 
+def test_view_of_a_scene_without_bodies_says_so(tmp_path):
+    empty = tmp_path / "empty.toml"
+    empty.write_text("[world]\ndt = 0.01\n")
+    result = invoke("view", empty)
+    assert result.exit_code == 1
+    assert result.output.strip() == (
+        "thesis-rbd: error: scene 'empty' has no bodies: there is nothing to view"
+    )
+
+
 def test_the_summary_keeps_compiling_apart_from_the_stages(monkeypatch):
     """A kernel compiled during the run's first step: its time is reported as compiling, and
     the stage table leaves that step out."""

@@ -142,6 +142,11 @@ class LiveView:
         Told the name of a kernel when numba starts compiling one, and None once the world
         steps again without compiling (the command line shows a spinner in between).
 
+    Raises
+    ------
+    ValueError
+        If the scene has no bodies.
+
     Attributes
     ----------
     server : viser.ViserServer
@@ -162,6 +167,8 @@ class LiveView:
         on_compile: Callable[[str | None], None] | None = None,
     ):
         viser = require_viser()
+        if not scene.bodies:
+            raise ValueError(f"scene {scene.name!r} has no bodies: there is nothing to view")
         self.scene = scene
         self._on_compile = on_compile
         self._compiling: str | None = None
