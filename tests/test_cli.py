@@ -273,7 +273,7 @@ def test_the_summary_keeps_compiling_apart_from_the_stages(monkeypatch):
     assert lines[0].startswith("thesis-rbd: compiling kernels, first run only")
     assert lines[2].startswith("  compiling kernels, first run only: ")
     assert lines[2].endswith("for 1 kernel (numba caches them for later runs)")
-    assert lines[3].startswith("  the stages below leave out the 1 steps that compiled kernels")
+    assert lines[3] == "  the stage times below leave out the 1 step during which kernels compiled"
     integrate = next(line for line in lines if line.strip().startswith("integrate"))
     assert integrate.split()[1] == "24"  # 25 steps, the one that compiled left out
 

@@ -177,9 +177,10 @@ def _summary(
             f"{_kernels(log.kernel_count)} (numba caches them for later runs)"
         )
         if ledger.compiling_steps:
+            steps = ledger.compiling_steps
             lines.append(
-                f"  the stages below leave out the {ledger.compiling_steps} steps that compiled "
-                f"kernels ({ledger.compiling_wall:.3f} s)"
+                f"  the stage times below leave out the {steps} step{'' if steps == 1 else 's'} "
+                "during which kernels compiled"
             )
     lines.append(f"  {'stage':<14}{'calls':>8}{'seconds':>11}{'share':>8}")
     profile = {stage: entry for stage, entry in profile.items() if entry["calls"]}
