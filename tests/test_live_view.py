@@ -138,6 +138,10 @@ def test_view_draws_the_scene_advances_obeys_its_buttons_and_stops_on_ctrl_c(liv
         assert np.count_nonzero(np.any(browser.screenshot() != first, axis=2)) > 500  # it turns
 
         click_button(browser, "Pause")
+        # the server answers by relabelling the button; then the panel settles
+        browser.wait_for(
+            "[...document.querySelectorAll('button')].some(b => b.textContent.trim() === 'Play')"
+        )
         time.sleep(1.0)
         paused_t, paused_step = panel_state(browser)
         time.sleep(1.0)
