@@ -289,9 +289,11 @@ def test_warmup_runs_every_part_and_leaves_nothing_to_compile():
     assert result.output.splitlines()[-1].startswith("warm-up: ") or "slowest kernels" in (
         result.output
     )
-    # everything a full run of every built-in scene calls was compiled by the warm-up
+    # what full runs reach beyond the warm-up's first second was compiled too: the tori touch
+    # only after 2.3 s, the dominoes topple one another until the end (the startup study checks
+    # every scene, each in a fresh process)
     with CompileLog() as log:
-        for name in rbd.scenes.names():
+        for name in ("tori_demo", "dominoes"):
             scene = rbd.scenes.get(name)
             rbd.simulate(scene.build(), scene.seconds, record_contacts=True)
         _collision_queries()
