@@ -192,12 +192,14 @@ def _pytest_once(cache: Path) -> dict:
         outcome: int(count)
         for count, outcome in re.findall(r"(\d+) (passed|failed|skipped|errors?)", tail)
     }
+    failures = [line for line in finished.stdout.splitlines() if line.startswith("FAILED ")]
     return {
         "seconds": wall,
         "cpu_seconds": cpu,
         "status": finished.returncode,
         "outcome": tail,
         "counts": counts,
+        "failures": failures,
     }
 
 
