@@ -22,7 +22,6 @@ import numpy as np
 import pytest
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
-BACKGROUND = np.array([255, 255, 255])
 
 
 def find_chromium() -> str | None:

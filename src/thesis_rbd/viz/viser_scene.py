@@ -20,6 +20,10 @@ from thesis_rbd.geometry.mesh import TriangleMesh
 __all__ = [
     "VISER_MISSING",
     "BodyNodes",
+    "add_floor_grid",
+    "body_color",
+    "camera_pose",
+    "frame_camera",
     "require_viser",
     "scene_bounds",
     "wxyz_from_xyzw",
@@ -34,7 +38,6 @@ VISER_MISSING = (
 PALETTE = ((214, 96, 61), (61, 126, 214), (92, 170, 90), (224, 170, 48), (150, 98, 196))
 STATIC_COLOR = (150, 150, 150)
 CONTACT_COLOR = (255, 23, 68)
-BACKGROUND = (255, 255, 255)
 
 
 def require_viser():
