@@ -167,11 +167,10 @@ def test_fat_boxes_lose_no_candidate_pair():
     checked = 0
     for _ in range(120):
         world.step()
-        c = world._collision
-        tight = tight_boxes(world, fast=c.fast)
+        tight = tight_boxes(world, fast=world._fast)
         expected = brute_force_pairs(tight[0], tight[1])
         expected = expected[~(world.bodies.static[expected].all(axis=1))]
-        np.testing.assert_array_equal(c.candidate_pairs, expected)
+        np.testing.assert_array_equal(world._candidates, expected)
         checked += len(expected)
     assert checked > 0
     assert len(updates) < 60  # the fat boxes spared most sweep-and-prune updates

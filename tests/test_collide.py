@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from reference import MESH_KINDS, brute_force_pairs, examples, random_mesh, random_pose
 
 import thesis_rbd as rbd
-from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
+from validation.fcl_adapter import fcl_collide, fcl_model, fcl_object
 from validation.tori import tori_mesh, tori_poses
 
 VARIANTS = [
@@ -182,7 +182,7 @@ def test_invalid_mode_tree_and_tolerance_raise():
 def test_fcl_adapter_quaternion_round_trip():
     from scipy.spatial.transform import Rotation
 
-    from thesis_rbd.collision._fcl import fcl_transform, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
+    from validation.fcl_adapter import fcl_transform, quat_wxyz_to_xyzw, quat_xyzw_to_wxyz
 
     q = Rotation.random(5, random_state=4).as_quat()  # (x, y, z, w)
     np.testing.assert_array_equal(quat_wxyz_to_xyzw(quat_xyzw_to_wxyz(q)), q)

@@ -1,4 +1,13 @@
-"""Contact dynamics in a World against analytic answers (issue 5's acceptance list)."""
+"""Contact dynamics in a World against analytic answers (issue 5's acceptance list).
+
+Resting and landing bodies are judged as the stability suite judges them (validation/studies/
+stability_suite.py): over the whole run, not at its end, with drift and penetration bounded by
+1 % of the body's size or of the thinner body's thickness (``TOLERANCE``). Every test runs under
+both narrow phases: "auto" (convex pairs as convex polyhedra) and "mesh" (the OBBTree for every
+pair).
+"""
+
+import functools
 
 import numpy as np
 import pytest
@@ -11,6 +20,14 @@ DT = 1 / 240
 FLOOR = rbd.shapes.box((4.0, 4.0, 1.0))
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))
 BALL = rbd.shapes.icosphere(0.5, 3)
+TOLERANCE = 0.01  # the stability suite's fraction of a body's size or thickness
+
+
+@pytest.fixture(autouse=True, params=["auto", "mesh"])
+def narrow_phase(request, monkeypatch):
+    """rbd.World with the narrow phase of this run."""
+    monkeypatch.setattr(rbd, "World", functools.partial(rbd.World, narrow_phase=request.param))
+    return request.param
 
 
 def floor_world(**options):
@@ -57,11 +74,18 @@ def test_elastic_ball_never_gains_energy_over_20_seconds():
 
 @pytest.mark.parametrize("mesh", [BALL, CUBE], ids=["ball", "cube"])
 def test_inelastic_body_comes_to_rest_barely_penetrating(mesh):
+    """Landing and resting, the deepest contact and the lowest the centre went (its resting
+    height is 0.5 m) stay within 1 % of the body's 1 m size at every step."""
     world = floor_world()
     body = world.add_body(mesh, mass=1.0, position=(0, 0, 1.5), restitution=0.0)
-    world.step(round(2 / DT))
+    deepest, lowest = 0.0, np.inf
+    for _ in range(round(2 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        lowest = min(lowest, world.position(body)[2])
     assert np.linalg.norm(world.linear_velocity(body)) < 1e-3
-    assert world.position(body)[2] >= 0.5 - 1e-3  # penetration <= 1 mm
+    assert deepest <= TOLERANCE * 1.0
+    assert lowest >= 0.5 - TOLERANCE * 1.0
     assert world.sleeping[body]
 
 
@@ -115,22 +139,35 @@ def test_an_impact_between_free_bodies_conserves_momentum(friction):
     assert np.abs(L1 - L0).max() <= 1e-6 * np.abs(L0).max()
 
 
+def stack_drift_and_depth(world, cubes, steps, each_step=None):
+    """Largest drift of any cube's centre from where it started, and the deepest contact,
+    both over every step of the run (what the stability suite measures)."""
+    start = world.positions[cubes].copy()
+    drift = deepest = 0.0
+    for step in range(steps):
+        world.step()
+        drift = max(drift, np.linalg.norm(world.positions[cubes] - start, axis=1).max())
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        if each_step is not None:
+            each_step(step)
+    return drift, deepest
+
+
 def test_ten_cube_stack_settles_and_stays():
+    """Ten unit cubes, library defaults, 10 s: at rest within a second, and no cube's centre
+    ever more than 1 % of the edge from where it was put, nor any contact deeper."""
     world = floor_world()
     cubes = [
         world.add_body(CUBE, mass=1.0, position=(0, 0, 0.5 + i), friction=0.5) for i in range(10)
     ]
-    top = cubes[-1]
-    start = world.position(top)
-    deepest = 0.0
-    for step in range(round(10 / DT)):
-        world.step()
-        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+
+    def at_rest_after_a_second(step):
         if step == round(1 / DT):
-            speeds = [np.linalg.norm(world.linear_velocity(c)) for c in cubes]
-            assert max(speeds) < 0.01
-    assert np.linalg.norm(world.position(top) - start) < 1e-3
-    assert deepest <= 1e-3
+            assert max(np.linalg.norm(world.linear_velocity(c)) for c in cubes) < 0.01
+
+    drift, deepest = stack_drift_and_depth(world, cubes, round(10 / DT), at_rest_after_a_second)
+    assert drift <= TOLERANCE * 1.0
+    assert deepest <= TOLERANCE * 1.0
 
 
 @pytest.mark.parametrize("speed", [10.0, 30.0, 60.0])
@@ -150,14 +187,39 @@ def test_thin_plate_falling_flat_fast_lands_on_the_floor(speed):
         world.step()
         lowest = min(lowest, world.position(plate)[2])
     assert world.position(plate)[2] == pytest.approx(0.005, abs=1e-3)
+    # Not through: the centre never went below the floor's top. Deeper than half its
+    # thickness, a contact would push the plate out below the floor; how deep it may rest is
+    # the next test's question.
     assert lowest > 0.0
 
 
-def test_mass_ratio_stack_stands_with_the_exact_solver():
+def test_thin_plate_rests_within_one_percent_of_its_thickness():
+    """The stability suite's thin plate: at 30 m/s, then resting, no contact deeper than
+    1 % of the plate's 1 cm thickness and its centre never lower by more than that."""
+    world = floor_world()
+    plate = world.add_body(
+        rbd.shapes.box((0.6, 0.6, 0.01)),
+        mass=1.0,
+        position=(0, 0, 1.0),
+        linear_velocity=(0, 0, -30.0),
+        restitution=0.0,
+    )
+    deepest, lowest = 0.0, np.inf
+    for _ in range(round(1 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        lowest = min(lowest, world.position(plate)[2])
+    assert deepest <= TOLERANCE * 0.01
+    assert lowest >= 0.005 - TOLERANCE * 0.01
+
+
+@pytest.mark.parametrize("solver", ["auto", "exact"])
+def test_mass_ratio_stack_stands(solver):
     """Ten cubes, masses growing geometrically to 100x at the top, each offset by up to 5 mm,
-    kept awake: the exact solver holds them where they were put (pybullet's default solver
-    lets this stack collapse; see the validation stability suite)."""
-    world = floor_world(contact_solver="exact", sleeping=False)
+    kept awake: the default solver and the exact one hold them where they were put, within
+    1 % of the edge at every step (pybullet drifts by decimetres, at its defaults and tuned;
+    see the validation stability suite)."""
+    world = floor_world(contact_solver=solver, sleeping=False)
     offsets = np.random.default_rng(0).uniform(-0.005, 0.005, (10, 2))
     cubes = [
         world.add_body(
@@ -169,15 +231,10 @@ def test_mass_ratio_stack_stands_with_the_exact_solver():
         )
         for i in range(10)
     ]
-    start = np.array([world.position(c) for c in cubes])
-    deepest = 0.0
-    for _ in range(round(2 / DT)):
-        world.step()
-        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
-        assert world.contact_info["lemke_fallbacks"] == 0
-    drift = np.linalg.norm([world.position(c) for c in cubes] - start, axis=1)
-    assert drift.max() < 1e-3
-    assert deepest <= 1e-3
+
+    drift, deepest = stack_drift_and_depth(world, cubes, round(2 / DT))
+    assert drift <= TOLERANCE * 1.0
+    assert deepest <= TOLERANCE * 1.0
 
 
 def test_sliding_cube_stops_at_the_coulomb_distance():
@@ -220,18 +277,29 @@ def test_cube_on_an_incline_holds_or_slides(degrees):
 @pytest.mark.parametrize("start_height", np.linspace(0.3, 0.5, 7))
 def test_fast_small_sphere_does_not_tunnel_through_a_thin_plate(start_height):
     """0.05 m sphere at 40 m/s: 0.17 m per step, more than sphere and plate together, so
-    where it ends a step depends on the start height; it must never pass through."""
+    where it ends a step depends on the start height. It must stop on the plate: its centre
+    never lower than its resting height (plate top 0.01 m + radius) by more than 1 % of the
+    plate's 2 cm thickness, and no contact deeper than that."""
     world = rbd.World(dt=DT)
     world.add_body(rbd.shapes.box((1, 1, 0.02)), static=True)
+    sphere_mesh = rbd.shapes.icosphere(0.05, 2)
     sphere = world.add_body(
-        rbd.shapes.icosphere(0.05, 2),
+        sphere_mesh,
         mass=0.1,
         position=(0, 0, start_height),
         linear_velocity=(0, 0, -40),
     )
-    world.step(60)
-    assert world.position(sphere)[2] > 0.0
+    resting = 0.01 - sphere_mesh.vertices[:, 2].min()  # its lowest vertex on the plate's top
+    bound = TOLERANCE * 0.02
+    deepest, lowest = 0.0, np.inf
+    for _ in range(60):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        lowest = min(lowest, world.position(sphere)[2])
     assert world.profile["tunnelling"]["calls"] > 0
+    assert lowest >= resting - bound
+    assert deepest <= bound
+    assert world.position(sphere)[2] == pytest.approx(resting, abs=bound)
 
 
 def test_sleeping_wakes_on_touch_and_on_force():
@@ -261,9 +329,6 @@ def test_sleeping_wakes_on_touch_and_on_force():
 @pytest.mark.parametrize(
     "option",
     [
-        {"slop": 0.0},
-        {"slop": float("nan")},
-        {"bounce_threshold": -1.0},
         {"contact_solver": "dantzig"},
         {"penetration": "ignore"},
         {"friction_sides": 2},

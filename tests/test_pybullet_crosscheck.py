@@ -1,7 +1,9 @@
 """Restitution and energy of a bouncing ball: ours against pybullet, in the same test.
 
-pybullet is set up as its issue #3094 advises (validation/pybullet_contact.py). Ours must be
-at least as close to e^2 per bounce, and to constant energy with e = 1, as pybullet is.
+pybullet runs tuned for restitution as its issue #3094 advises (validation/pybullet_contact.py,
+configuration "restitution": warmStartingFactor 0, restitutionVelocityThreshold 0, split
+impulse, contactProcessingThreshold 0), its best for bounces. Ours must be at least as close
+to e^2 per bounce, and to constant energy with e = 1, as pybullet is.
 """
 
 import numpy as np

@@ -12,8 +12,15 @@ leaf, 2m - 1 nodes as flat arrays. Boxes are axis-aligned in the mesh frame. Und
 relative rotation B's boxes are oriented in A's frame, so the box test is van den Bergen's
 "SAT-lite": the 6 face axes of the two boxes (a conservative test: it may report an overlap
 that the 9 edge-edge axes would reject, never the other way). The descent rule (split the
-box with the longer half-extent) and the triangle test (:func:`tri_tri_overlap`) are the
-OBB tree's, so the pair sets must be equal: the tree is also a test oracle.
+box with the longer half-extent) is the OBB tree's.
+
+The tree has two uses, and its leaf test follows the use. As a test oracle of the OBB tree's
+pair sets (:func:`aabb_collide`, by default) it decides triangle pairs with its own
+separating-axis test (:mod:`validation.triangle_sat`), which shares no code with the
+library's, so agreement is a check of both the traversal and the triangle test. As the cost
+instrument of the OBB-vs-AABB study (``triangle_test="library"`` and the ``record_*`` and
+``time_*`` functions) it uses the library's test (:func:`tri_tri_overlap`), so that the two
+trees differ only in their boxes.
 
 The ``record_*`` traversals return the sequence of tested box pairs and triangle pairs of a
 query ("all" mode); the ``time_*`` kernels replay such a sequence doing only the box tests
@@ -28,8 +35,10 @@ import time
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.collide import _boxes_disjoint, _carry_box
+from thesis_rbd.collision.collide import _boxes_disjoint
+from thesis_rbd.collision.packed import carry_box, half_extent, layout
 from thesis_rbd.collision.triangle import tri_tri_overlap
+from validation.triangle_sat import triangles_overlap
 
 __all__ = [
     "AABBTree",
@@ -205,6 +214,17 @@ def _triangles_intersect(ta, tb, Va, Fa, Vb, Fb, R, tr):
 
 
 @njit
+def _triangles_overlap_sat(ta, tb, Va, Fa, Vb, Fb, R, tr):
+    """The oracle's own test (``validation.triangle_sat``) on triangle ta of A and tb of B."""
+    P = np.empty((3, 3))
+    Q = np.empty((3, 3))
+    for k in range(3):
+        P[k] = Va[Fa[ta, k]]
+        Q[k] = _moved_corner(Vb, Fb, tb, k, R, tr)
+    return triangles_overlap(P, Q)
+
+
+@njit
 def _carry_aabb(y, cb, hb, R, tr):
     """B's box y in A's frame: centre ``R c + t`` (its axes are R's columns)."""
     return (
@@ -265,11 +285,12 @@ def _push_children(stack, top, x, y, a_leaf, b_leaf, ha, hb, cha, chb):
 
 
 @njit
-def _aabb_traverse(first_only, record, ca, ha, cha, Va, Fa, cb, hb, chb, Vb, Fb, R, tr):
+def _aabb_traverse(first_only, record, own_test, ca, ha, cha, Va, Fa, cb, hb, chb, Vb, Fb, R, tr):
     """Walk two AABB trees; return (pairs, bv_tests, tri_tests, box_log, tri_log).
 
     With ``record`` the tested box pairs and triangle pairs are logged in order (else the
-    logs are empty).
+    logs are empty). ``own_test`` decides triangle pairs with the oracle's own test, else
+    with the library's.
     """
     absR = np.abs(R)
     pairs = np.empty((64, 2), dtype=np.int64)
@@ -314,7 +335,11 @@ def _aabb_traverse(first_only, record, ca, ha, cha, Va, Fa, cb, hb, chb, Vb, Fb,
                 tri_log[tri_tests, 0] = ta
                 tri_log[tri_tests, 1] = tb
             tri_tests += 1
-            if _triangles_intersect(ta, tb, Va, Fa, Vb, Fb, R, tr):
+            if own_test:
+                hit = _triangles_overlap_sat(ta, tb, Va, Fa, Vb, Fb, R, tr)
+            else:
+                hit = _triangles_intersect(ta, tb, Va, Fa, Vb, Fb, R, tr)
+            if hit:
                 if n_pairs == pairs.shape[0]:
                     bigger = np.empty((2 * n_pairs, 2), dtype=np.int64)
                     bigger[:n_pairs] = pairs
@@ -333,7 +358,7 @@ def _sorted_pairs(pairs: np.ndarray) -> np.ndarray:
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if len(pairs) > 1 else pairs
 
 
-def aabb_collide(tree_a, T_a, tree_b, T_b, mode: str = "all"):
+def aabb_collide(tree_a, T_a, tree_b, T_b, mode: str = "all", triangle_test: str = "own"):
     """Intersect two meshes through their AABB trees.
 
     Parameters
@@ -343,6 +368,8 @@ def aabb_collide(tree_a, T_a, tree_b, T_b, mode: str = "all"):
         Rigid poses of the meshes.
     mode : {"first", "all"}
         Stop at the first intersecting triangle pair, or find them all.
+    triangle_test : {"own", "library"}
+        The oracle's own separating-axis test, or the library's (for cost comparisons).
 
     Returns
     -------
@@ -351,10 +378,12 @@ def aabb_collide(tree_a, T_a, tree_b, T_b, mode: str = "all"):
     stats : dict
         ``bv_tests`` (box pairs tested, nv) and ``tri_tests`` (triangle pairs tested, np).
     """
+    if triangle_test not in ("own", "library"):
+        raise ValueError(f"triangle_test must be 'own' or 'library', got {triangle_test!r}")
     R, tr = relative_pose(T_a, T_b)
     mesh_a, mesh_b = tree_a.mesh, tree_b.mesh
     pairs, bv_tests, tri_tests, _, _ = _aabb_traverse(
-        mode == "first", False,
+        mode == "first", False, triangle_test == "own",
         tree_a.centers, tree_a.half_extents, tree_a.children, mesh_a.vertices, mesh_a.faces,
         tree_b.centers, tree_b.half_extents, tree_b.children, mesh_b.vertices, mesh_b.faces,
         R, tr,
@@ -380,7 +409,7 @@ def record_aabb_traversal(tree_a, T_a, tree_b, T_b):
     R, tr = relative_pose(T_a, T_b)
     mesh_a, mesh_b = tree_a.mesh, tree_b.mesh
     _, _, _, box_log, tri_log = _aabb_traverse(
-        False, True,
+        False, True, False,
         tree_a.centers, tree_a.half_extents, tree_a.children, mesh_a.vertices, mesh_a.faces,
         tree_b.centers, tree_b.half_extents, tree_b.children, mesh_b.vertices, mesh_b.faces,
         R, tr,
@@ -389,12 +418,16 @@ def record_aabb_traversal(tree_a, T_a, tree_b, T_b):
 
 
 @njit
-def _obb_record(ca, ra, ha, cha, cb, rb, hb, chb, M, tr):
+def _obb_record(Pa, cha, Pb, hb, chb, M, tr):
     """The classic (leaf) OBB tree's "all" traversal, logging its tests.
 
     Mirrors :func:`thesis_rbd.collision.collide.traverse` for two leaf trees (no first-mode
-    child ordering); returns (box_log (nv, 2), tri_log (np, 2)).
+    child ordering); trees as their packed query arrays for the box tests, plus the arrays
+    the descent reads. Returns (box_log (nv, 2), tri_log (np, 2)).
     """
+    La = layout(Pa)
+    Lb = layout(Pb)
+    ha = Pa[La[1] : La[2]]
     box_log = np.empty((1024, 2), dtype=np.int64)
     tri_log = np.empty((1024, 2), dtype=np.int64)
     stack = np.empty((64, 2), dtype=np.int64)
@@ -419,10 +452,10 @@ def _obb_record(ca, ra, ha, cha, cb, rb, hb, chb, M, tr):
         box_log[nv, 1] = y
         nv += 1
         if y != carried:
-            g, c = _carry_box(y, cb, rb, M, tr)
-            hy = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
-        if _boxes_disjoint(x, ca, ra, ha, g, c, hy):
+        if _boxes_disjoint(x, Pa, La, g, c, hy):
             continue
         a_leaf = cha[x, 0] < 0
         b_leaf = chb[y, 0] < 0
@@ -461,14 +494,16 @@ def record_obb_traversal(tree_a, T_a, tree_b, T_b):
         raise ValueError("record_obb_traversal needs classic (leafless=False) OBB trees")
     R, tr = relative_pose(T_a, T_b)
     return _obb_record(
-        tree_a.centers, tree_a.rotations, tree_a.half_extents, tree_a.children,
-        tree_b.centers, tree_b.rotations, tree_b.half_extents, tree_b.children,
+        tree_a.query_array(), tree_a.children,
+        tree_b.query_array(), tree_b.half_extents, tree_b.children,
         _row_major(R), (float(tr[0]), float(tr[1]), float(tr[2])),
     )  # fmt: skip
 
 
 @njit
-def _replay_obb_tests(box_pairs, ca, ra, ha, cb, rb, hb, M, tr):
+def _replay_obb_tests(box_pairs, Pa, Pb, M, tr):
+    La = layout(Pa)
+    Lb = layout(Pb)
     disjoint = 0
     carried = -1
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -478,10 +513,10 @@ def _replay_obb_tests(box_pairs, ca, ra, ha, cb, rb, hb, M, tr):
         x = box_pairs[k, 0]
         y = box_pairs[k, 1]
         if y != carried:
-            g, c = _carry_box(y, cb, rb, M, tr)
-            hy = (float(hb[y, 0]), float(hb[y, 1]), float(hb[y, 2]))
+            g, c = carry_box(y, Pb, Lb, M, tr)
+            hy = half_extent(Pb, Lb, y)
             carried = y
-        if _boxes_disjoint(x, ca, ra, ha, g, c, hy):
+        if _boxes_disjoint(x, Pa, La, g, c, hy):
             disjoint += 1
     return disjoint
 
@@ -538,10 +573,7 @@ def time_obb_tests(tree_a, T_a, tree_b, T_b, box_pairs, repeats: int = 3) -> flo
     """
     R, tr = relative_pose(T_a, T_b)
     M, t = _row_major(R), (float(tr[0]), float(tr[1]), float(tr[2]))
-    args = (
-        box_pairs, tree_a.centers, tree_a.rotations, tree_a.half_extents,
-        tree_b.centers, tree_b.rotations, tree_b.half_extents, M, t,
-    )  # fmt: skip
+    args = (box_pairs, tree_a.query_array(), tree_b.query_array(), M, t)
     return _best_seconds(lambda: _replay_obb_tests(*args), repeats)
 
 

@@ -2,16 +2,22 @@
 
 Run with ``pytest validation/bench_contacts.py --benchmark-enable``. For N = 10, 100, 1000
 unit cubes (mass 1, friction 0.5) in a square grid 1.5 m apart, 0.5 m above a static floor,
-each world is timed per step in two phases, in the same run as the same scene in pybullet
-(``validation/pybullet_contact.py``):
+each world is timed per step in three phases, each against the same scene in pybullet
+(``validation/pybullet_contact.py``) in the same run, like against like:
 
 * falling: the first steps after release (no contact yet: forces, integration, bounds and
-  the broad phase);
-* at rest: after 2.5 s, when every cube lies on the floor — with sleeping on (ours by
-  default), with sleeping off (every contact solved every step), and pybullet's.
+  the broad phase); both engines at their defaults;
+* at rest, asleep: after 2.5 s, when every cube lies on the floor; ours at its defaults
+  (sleeping on), pybullet with sleeping enabled (``ACTIVATION_STATE_ENABLE_SLEEPING``: its
+  multibodies never sleep by default);
+* at rest, awake: the same, every contact solved every step; ours with ``sleeping=False``,
+  pybullet at its defaults.
 
-Targets: at N = 1000 no slower than pybullet in either phase; the resting scene asleep at
-least 20x cheaper than the same scene awake.
+pybullet runs without its #3094 restitution tuning (no body bounces here) and with damping 0
+as in our scene.
+
+Targets: at N = 1000 no slower than pybullet in any phase; the resting scene asleep at least
+20x cheaper than the same scene awake.
 """
 
 import numpy as np
@@ -48,37 +54,57 @@ def our_world(count, sleeping=True):
     return world
 
 
-def pybullet_world(count):
+def pybullet_world(count, sleeping=False):
+    """The grid in pybullet; ``sleeping`` enables its sleeping (off by default there)."""
     from validation.pybullet_contact import PybulletScene
 
     centres, half = grid(count)
     scene = PybulletScene(DT, floor_half_extents=half)
     for centre in centres:
-        scene.add_box((0.5, 0.5, 0.5), 1.0, centre, friction=0.5)
+        body = scene.add_box((0.5, 0.5, 0.5), 1.0, centre, friction=0.5)
+        if sleeping:
+            scene.p.changeDynamics(
+                body,
+                -1,
+                activationState=scene.p.ACTIVATION_STATE_ENABLE_SLEEPING,
+                physicsClientId=scene.client,
+            )
     return scene
 
 
+# phase -> (our World's sleeping, pybullet's sleeping, pybullet's label)
+PHASES = {
+    "falling": (True, False, "pybullet (defaults)"),
+    "rest_asleep": (True, True, "pybullet (sleeping enabled)"),
+    "rest_awake": (False, False, "pybullet (defaults: never sleeps)"),
+}
+
+
 @pytest.mark.parametrize("count", COUNTS)
-@pytest.mark.parametrize("phase", ["falling", "rest"])
-@pytest.mark.parametrize("engine", ["ours", "ours_awake", "pybullet"])
+@pytest.mark.parametrize("phase", list(PHASES))
+@pytest.mark.parametrize("engine", ["ours", "pybullet"])
 def test_cube_grid_step(benchmark, engine, phase, count):
     pytest.importorskip("pybullet")
-    benchmark.group = f"cube grid {phase}, N = {count}"
+    ours_sleep, peer_sleep, peer_label = PHASES[phase]
+    benchmark.group = f"cube grid {phase.replace('_', ', ')}, N = {count}"
     benchmark.extra_info.update(bodies=count, phase=phase, engine=engine)
     if engine == "pybullet":
-        benchmark.extra_info["peer"] = "pybullet"
-        world = pybullet_world(count)
-        step = world.step
+        benchmark.extra_info["peer"] = peer_label
+        world = pybullet_world(count, sleeping=peer_sleep)
     else:
-        world = our_world(count, sleeping=engine == "ours")
-        step = world.step
+        world = our_world(count, sleeping=ours_sleep)
+    step = world.step
     step(2)  # compile or warm up outside the timing
-    if phase == "rest":
+    if phase != "falling":
         step(SETTLE_STEPS)
     rounds = 20 if phase == "falling" else 50
     benchmark.pedantic(step, rounds=rounds, iterations=1, warmup_rounds=0)
-    if engine == "ours" and phase == "rest":
-        assert world.sleeping[1:].all()  # the timed scene really was asleep
+    if phase == "rest_asleep":
+        # the timed scene really was asleep, in both engines
+        if engine == "ours":
+            assert world.sleeping[1:].all()
+        else:
+            assert all(not world.velocity(b).any() for b in range(1, count + 1))
 
 
 def test_resting_grid_is_the_same_scene_in_both_engines():

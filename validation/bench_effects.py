@@ -14,15 +14,9 @@ Each benchmark steps the other world, untimed, before each of its timed steps, s
 the same alternation; the full step's ``extra_info`` also holds the ratio against those
 interleaved steps (``interleaved_ratio_to_integration_alone``).
 
-Measured (2-core machine shared with three other jobs, so +-20 % run to run; ``python -m
-validation.bench_effects`` prints the per-stage profile of interleaved blocks), us per step:
-before (commit f8e58fc) integrate 204 / bounds 68 / broad phase 182 (every step) / sleep 27,
-full step 397-437 against 190-195 alone (2.1-2.2x); after (fat boxes, skipped sleep stage)
-integrate as alone / bounds 6-7.5 / broad phase 1.7-3 (called on 1 step in ~145) / sleep 0
-(never called). Full step against the integration alone, min / median us per step and the
-interleaved ratio, three runs: 174.9 / 197.6 vs 166.7 / 184.1 (1.09x), 174.9 / 177.5 vs
-166.7 / 168.3 (1.05x), 190.7 / 202.8 vs 167.0 / 183.7 (1.10x, a loaded run); with the
-integration's start-pose copy (two np.copyto) instead of its in-kernel save, +6 us.
+``python -m validation.bench_effects`` prints the per-stage profile of interleaved blocks,
+which shows where a full step's time goes; the figures are in the report (study
+``effects_benchmarks``).
 """
 
 from time import perf_counter

@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 import thesis_rbd as rbd
-from thesis_rbd.collision._fcl import fcl_model, fcl_object, fcl_transform, require_fcl
+from validation.fcl_adapter import fcl_model, fcl_object, fcl_transform, require_fcl
 from validation.tori import tori_mesh, tori_poses
 
 VARIANTS = {
@@ -98,7 +98,7 @@ class Demo:
         return float(per_pose.sum()), pairs, per_pose
 
     def fcl_pairs(self, k: int) -> np.ndarray:
-        from thesis_rbd.collision._fcl import fcl_collide
+        from validation.fcl_adapter import fcl_collide
 
         self.fcl_b.setTransform(self.fcl_poses[k])
         _, pairs = fcl_collide(self.fcl_a, self.fcl_b)

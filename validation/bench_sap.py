@@ -11,35 +11,17 @@ overlapping neighbour per box (edge 2 n^(1/3) m, constant density), bouncing off
 i.e. about 4 mm (0.4 % of a box) per frame. "incoherent": every box is redrawn anywhere each
 frame. Targets: coherent 10k at least 3x faster than fcl's manager; coherent 100k <= 20 ms.
 
-The coherent motion is kept as it was, on purpose: about 1 m/s per body (components
-N(0, 0.6 m/s)) at dt = 1/240 is at the slow end of a rigid-body scene, 4.2 mm or 0.4 % of a 1 m
-box per frame. With one sorted list per axis, at constant density every endpoint passes
-~n^(2/3) others per metre, so swaps grew like n^(5/3) (1.8M per frame at 100k). Since commit
-74a73d6 each axis is sorted per column of a coarse grid across it (a multi-SAP, cells of 8
-median box edges, 11 x 11 columns per axis at 100k, 1.23 records per box), and swaps grow
-like n: 816 / 2.2k / 23k per frame at 1k / 10k / 100k.
+The coherent motion is deliberately slow-to-moderate: about 1 m/s per body at dt = 1/240,
+0.4 % of a box per frame, the slow end of a rigid-body scene. At constant density each
+endpoint passes ~n^(2/3) others per metre of motion, so a single sorted list per axis makes
+swaps grow like n^(5/3); the multi-SAP (each axis sorted per column of a coarse grid)
+exists to bring that back to ~n, and this scene is where the difference shows.
 
-Measured on a 2-core machine shared with three other engineers' jobs (load 3-6), as CPU time
-of the thread (wall time there counts the other jobs' turns on the core) and minima over
-frames. Interleaved A/B, coherent 100k per frame: before (3e64bf3, one list per axis)
-33.8-34.6 ms; multi-SAP (74a73d6) 16.2-18.1 ms; records refreshed from a per-axis endpoint
-table (a6c817b) 11.5-12.7 ms; refresh loops that vectorise (f422f7b) 9.9-11.0 ms. The
-``__main__`` run of this module at f422f7b, ms per frame ours / fcl / numpy (interleaved frame
-by frame, so each of ours starts with caches the peers have evicted): coherent 1k
-0.090 / 0.94 / 0.90, 10k 0.82 / 12.2 / 54 (15x fcl), 100k 9.2 / 151 / 2130; incoherent 1k
-1.03 / 4.54 / 0.98, 10k 22.0 / 351 / 43.8, 100k 675 / - / 2490. Scaling figure, ms at 1k /
-3k / 10k / 30k / 100k (ours alone): fixed speed 0.058 / 0.15 / 0.59 / 2.2 / 10.1, slope 1.13
-(before: 1.33 quiet, 1.48 loaded); bounded crossings 0.054 / 0.13 / 0.38 / 1.53 / 6.45,
-slope 1.05 (before 1.09); incoherent 0.89 / 4.5 / 22 / 110 / 673, slope 1.43. The fixed-speed
-slope is 1.07 from 1k to 30k and 1.27 from 30k to 100k: swaps grow like n now, what grows
-faster is memory (the records and bounds of 100k boxes, ~20 MB, no longer stay in cache). A
-full rebuild costs more than before for choosing the grid and filling the columns
-(incoherent 10k: 26 ms against 19 ms, A/B). Targets: coherent 100k <= 20 ms met (9-11 ms,
-34 ms before); 10k at least 3x faster than fcl met (15x); slope ~1 met in the swap count, to
-30k in time, and 1.13 over 1k-100k. Issue 6's case, ``update(check=False)`` of 1000
-far-apart boxes moving 1 um per frame with no events (a row of unit boxes 10 m apart): 22 us
-per call, 56-62 us before (A/B); the kernel is ~18 us of it (staging 5, each axis ~4), so
-the 15 us goal is not met.
+Timings for the scaling figure and the peer table of ``__main__`` are CPU time of the thread
+and minima over frames: on a machine shared with other jobs the spread comes from them, and
+wall time would count their turns on the core. The measured figures live in the report
+(``reports/``, study ``sap_benchmarks``) and in the commit messages of the changes they
+judged, not here.
 
 ``python -m validation.bench_sap FIGURE.png`` times ``SweepAndPrune.update`` against n and
 writes the log-log scaling figure with the fitted slopes.

@@ -21,13 +21,13 @@ METHOD_STYLES = {
         "color": "black",
         "marker": "x",
         "linestyle": "--",
-        "label": "pybullet btMultiBody",
+        "label": "pybullet btMultiBody (defaults, damping 0)",
     },
     "pybullet_rigidbody": {
         "color": "tab:gray",
         "marker": "+",
         "linestyle": "--",
-        "label": "pybullet btRigidBody",
+        "label": "pybullet btRigidBody (defaults, damping 0)",
     },
     "numpy_peer": {"color": "tab:purple", "marker": "v", "linestyle": ":", "label": "NumPy RK4"},
 }

@@ -2,22 +2,39 @@
 
 Collision detection after the JAOC design (sweep-and-prune broad phase, OBBTree narrow phase,
 exact contact report) and quaternion rigid-body dynamics, cross-checked against python-fcl and
-pybullet. Public names only; see DESIGN.md for the contract.
+pybullet. Public names only; the contract is docs/design.md.
 """
 
 from thesis_rbd import scenes, spatial
-from thesis_rbd.collision import CollisionResult, Contacts, OBBTree, collide
+from thesis_rbd.collision import (
+    CollisionResult,
+    Contacts,
+    ContinuousResult,
+    DistanceResult,
+    OBBTree,
+    RayHits,
+    collide,
+    collide_batch,
+    continuous_collide,
+    distance,
+    distance_batch,
+    ray_cast,
+)
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
-from thesis_rbd.world import World
+from thesis_rbd.world import NonFiniteStateError, World
 
 __all__ = [
     "CollisionResult",
     "Contacts",
+    "ContinuousResult",
+    "DistanceResult",
     "MassProperties",
+    "NonFiniteStateError",
     "OBBTree",
+    "RayHits",
     "Scene",
     "SceneError",
     "SweepAndPrune",
@@ -25,9 +42,14 @@ __all__ = [
     "TriangleMesh",
     "World",
     "collide",
+    "collide_batch",
+    "continuous_collide",
+    "distance",
+    "distance_batch",
     "load_mesh",
     "load_scene",
     "mass_properties",
+    "ray_cast",
     "scenes",
     "shapes",
     "simulate",

@@ -10,7 +10,16 @@ import math
 
 import numpy as np
 
-__all__ = ["as_finite_array", "as_positive_scalar", "as_rigid_transform", "as_unit_quaternion"]
+__all__ = [
+    "RIGID_TOLERANCE",
+    "as_finite_array",
+    "as_positive_scalar",
+    "as_rigid_transform",
+    "as_unit_quaternion",
+]
+
+# Default tolerance of :func:`as_rigid_transform` (also used by the collision kernels' own check).
+RIGID_TOLERANCE = 1e-6
 
 
 def as_finite_array(value, name: str, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -65,7 +74,7 @@ def as_unit_quaternion(value, name: str = "orientation") -> np.ndarray:
     return q / norm
 
 
-def as_rigid_transform(value, name: str, tolerance: float = 1e-6) -> np.ndarray:
+def as_rigid_transform(value, name: str, tolerance: float = RIGID_TOLERANCE) -> np.ndarray:
     """Return ``value`` as a (4, 4) float64 rigid transform, or raise ValueError.
 
     A rigid transform has an orthonormal rotation block with determinant +1 (within

@@ -1,5 +1,5 @@
 """The ``thesis-rbd`` command line: run scenes, view them live, list the built-ins, replay saved
-runs, compile the kernels ahead, validate.
+runs, compile the kernels ahead.
 
     thesis-rbd run [SCENE] [--seconds S] [--dt DT] [--integrator NAME] [--record-every K]
                    [--contacts | --no-contacts]
@@ -8,7 +8,6 @@ runs, compile the kernels ahead, validate.
     thesis-rbd scenes
     thesis-rbd play RUN.npz [--html play.html] [--gif play.gif]
     thesis-rbd warmup [--quiet]
-    thesis-rbd validate [--quick | --tiny] [--only STUDY ...] [--list] [...]
 
 SCENE is a scene file (TOML) or the name of a built-in scene (``thesis-rbd scenes``); without
 one, the default built-in runs. Every input is checked before the run starts: a fault exits
@@ -19,16 +18,14 @@ numba compiles the kernels on their first use, which takes minutes once and is c
 every later run: while it compiles, the commands say so on stderr (a spinner on a terminal),
 and ``run`` reports the time spent compiling apart from the time of the stages.
 
-``validate`` runs the validation campaign, ``python -m validation``, whose package lives at the
-root of a source checkout (it is not installed with thesis_rbd): it needs a checkout.
+The validation campaign is not a command of the installed package: it lives beside the
+sources in a checkout and runs there as ``python -m validation``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import importlib
 import math
-import os
 import sys
 from pathlib import Path
 from time import perf_counter
@@ -45,7 +42,7 @@ from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.scene import Scene, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
 
-__all__ = ["app", "load_validation_main", "resolve_scene"]
+__all__ = ["app", "resolve_scene"]
 
 app = typer.Typer(
     name="thesis-rbd",
@@ -447,65 +444,6 @@ def play(
         _write_outputs(trajectory, None, html, gif, fps, title)
     if not quiet:
         typer.echo(f"wrote {', '.join(str(p) for p in (html, gif) if p is not None)}")
-
-
-VALIDATION_NEEDS_CHECKOUT = (
-    "thesis-rbd validate needs a source checkout of thesis_rbd: the validation package "
-    "(python -m validation) lives at the repository root and is not installed with the "
-    "package. Clone the repository, pip install -e '.[test,validation]', and run it there"
-)
-
-
-def load_validation_main():
-    """Return ``validation.__main__.main``, the validation campaign's entry point.
-
-    The ``validation`` package sits at the root of a source checkout, beside ``src/``. When
-    thesis_rbd itself is imported from a checkout's ``src/`` (an editable install), that
-    checkout's root goes first on ``sys.path``, and on ``PYTHONPATH`` for the campaign's worker
-    processes; otherwise any importable ``validation`` package with a ``main`` is used (a
-    checkout on ``PYTHONPATH``).
-
-    Raises
-    ------
-    InputError
-        Saying that a source checkout is needed when no such package can be imported.
-    """
-    checkout = Path(__file__).resolve().parents[2]
-    if (checkout / "validation" / "__main__.py").is_file() and str(checkout) not in sys.path:
-        sys.path.insert(0, str(checkout))
-        os.environ["PYTHONPATH"] = os.pathsep.join(
-            filter(None, [str(checkout), os.environ.get("PYTHONPATH")])
-        )
-    try:
-        entry = importlib.import_module("validation.__main__")
-    except ImportError:
-        raise InputError(VALIDATION_NEEDS_CHECKOUT) from None
-    main_function = getattr(entry, "main", None)
-    if not callable(main_function):
-        raise InputError(
-            f"{VALIDATION_NEEDS_CHECKOUT} (the importable 'validation' package, "
-            f"{getattr(entry, '__file__', '?')}, is another one: it has no main)"
-        )
-    return main_function
-
-
-@app.command(
-    context_settings={"allow_extra_args": True, "ignore_unknown_options": True},
-    add_help_option=False,
-)
-def validate(context: typer.Context) -> None:
-    """Run the validation campaign (python -m validation; needs a source checkout).
-
-    Every argument goes to the campaign, e.g. --quick, --tiny, --only STUDY, --list, --out
-    FOLDER, --jobs N; `thesis-rbd validate --help` lists them.
-    """
-    with _reported_errors():
-        campaign = load_validation_main()
-    try:
-        status = campaign(list(context.args))
-    except SystemExit as exit_request:  # argparse: --help, or a bad argument (status 2)
-        status = exit_request.code
-    raise typer.Exit(code=status if isinstance(status, int) else 0 if status is None else 1)
 
 
 def main() -> None:  # pragma: no cover - the console script calls app directly

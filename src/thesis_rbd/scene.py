@@ -144,7 +144,8 @@ class Scene:
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
-        contact_solver, contact_iterations, friction_sides, bounce_threshold, slop, penetration.
+        contact_solver, contact_iterations, friction_sides, penetration, sleeping,
+        narrow_phase.
     bodies : tuple of BodySpec
         In world index order.
     source : str
@@ -297,23 +298,32 @@ _WORLD_KEYS = (
     "contact_solver",
     "contact_iterations",
     "friction_sides",
-    "bounce_threshold",
-    "slop",
     "penetration",
+    "sleeping",
+    "narrow_phase",
 )
+# keys of earlier versions, refused with the reason
+_REMOVED_WORLD_KEYS = {
+    key: f"{key} is no longer a setting: contact tolerances are relative to the bodies' sizes "
+    "and to the step (see the guide's contact section)"
+    for key in ("slop", "bounce_threshold")
+}
 # type checks of the contact settings; World checks their values (see _check_world)
 _CONTACT_CHECKS = {
     "contact_response": lambda v, w: _as_bool(v, w),
     "contact_solver": lambda v, w: _as_string(v, w),
     "contact_iterations": lambda v, w: _integer(v, w),
     "friction_sides": lambda v, w: _integer(v, w),
-    "bounce_threshold": lambda v, w: _non_negative_number(v, w),
-    "slop": lambda v, w: _positive_number(v, w),
     "penetration": lambda v, w: _as_string(v, w),
+    "sleeping": lambda v, w: _as_bool(v, w),
+    "narrow_phase": lambda v, w: _as_string(v, w),
 }
 
 
 def _parse_world(table: dict, where: _Context) -> dict:
+    for key in _REMOVED_WORLD_KEYS:
+        if key in table:
+            where.field(key).fail(_REMOVED_WORLD_KEYS[key])
     _check_keys(table, _WORLD_KEYS, where)
     world = {}
     if "dt" in table:

@@ -1,61 +1,111 @@
 """The world: bodies, the force model, and a step that reads as its list of stages.
 
 A step runs only the stages the scene calls for (``World.stages``), each timed into
-``World.profile``:
+``World.profile``, and the stages hand each other explicit arrays:
 
-    forces -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling -> contacts
-           -> sleep
+    forces -> contacts -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling
+           -> time_of_impact -> impacts -> sleep
+
+``contacts`` resolves the contacts found at the end of the previous step (where the bodies are
+now) before anything moves, so resting bodies never sink under gravity; ``integrate`` moves the
+bodies it acted on with their new velocities and every other body by the chosen ODE method;
+detection then finds the contacts of the new positions, which are the next step's;
+``time_of_impact`` steps bodies that flew into something back to the moment they touched, and
+``impacts`` resolves those collisions and carries the bodies to the end of the step.
 
 The plan is derived from the scene and refreshed whenever bodies or forces change: no gravity
 or applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
-collision stages; no contact response wanted (a detection-only scene), no contacts stage. Two
-stages are also skipped step by step when they have nothing to do: the narrow phase when the
-broad phase found no candidate pair, the tunnelling check when no body moved further than its
-own thickness, the contact response when there is no contact, everything but the forces when all
-bodies sleep; a skipped stage is not called and costs nothing. So are two more: the broad
-phase while no body left its fat box and no fat boxes overlap (``collision/bounds.py``), and
-the sleep stage while every moving body is too fast to count as still, none has been still
-and nothing touched (it would change nothing).
+collision stages; no contact response wanted (a detection-only scene), no contact stages.
+Stages are also skipped step by step when they have nothing to do (a skipped stage is not
+called and costs nothing): the contact stage without contacts, the narrow phase without
+candidate pairs, the tunnelling check when no body moved further than its own thickness, the
+impact stages when no body hit anything, everything but the forces when all bodies sleep; so
+are the broad phase while no body left its fat box (``collision/bounds.py``) and the sleep
+stage while it would change nothing.
+
+A step whose state turns non-finite (a huge force, a diverging solve) raises
+``NonFiniteStateError`` naming the body, the stage and the step, and leaves the world as it
+was before that step; the kernels report the first bad body as they write, so a good step pays
+only for one copy of the state.
 """
 
 from __future__ import annotations
 
-import math
+import dataclasses
 from time import perf_counter
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
+from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.collision.pipeline import CollisionPipeline, empty_contacts
+from thesis_rbd.collision.time_of_impact import step_back_to_impact
 from thesis_rbd.dynamics.bodies import BodyArrays
+from thesis_rbd.dynamics.body_builder import body_fields
+from thesis_rbd.dynamics.contact_settings import ContactSettings
 from thesis_rbd.dynamics.forces import (
     AppliedForces,
     DragCoefficients,
     PointForces,
     world_arm_to_body,
 )
+from thesis_rbd.dynamics.impacts import any_free_body, find_hits, resolve_impacts
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
-from thesis_rbd.dynamics.response import ContactSettings, ImpulseCache, resolve_contacts
+from thesis_rbd.dynamics.pgs import friction_polygon
+from thesis_rbd.dynamics.resting_contact import STATS, solve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
-from thesis_rbd.geometry.mass import mass_properties
-from thesis_rbd.geometry.mesh import TriangleMesh
-from thesis_rbd.geometry.width import hull_thickness
+from thesis_rbd.dynamics.warm_start import WarmStart
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate, quat_to_matrix
 
-__all__ = ["STAGE_NAMES", "World"]
+__all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
 # Every stage a world can run, in pipeline order; ``World.profile`` has an entry for each so
 # that a skipped stage shows zero calls.
 STAGE_NAMES = (
     "forces",
+    "contacts",
     "integrate",
     "bounds",
     "broad_phase",
     "narrow_phase",
     "tunnelling",
-    "contacts",
+    "time_of_impact",
+    "impacts",
     "sleep",
 )
+
+
+# the contacts a step without contact impulses acted at
+_NO_CONTACT_ACTED = dict(empty_contacts(), impulses=np.zeros((0, 3)))
+
+
+class NonFiniteStateError(FloatingPointError):
+    """A step made a body's state non-finite; the world is left as it was before the step.
+
+    Attributes
+    ----------
+    body : int
+        Index of the first body whose state went bad.
+    name : str
+        Its name.
+    stage : str
+        The stage that produced it.
+    step : int
+        Index of the step (0 for the world's first).
+    """
+
+    def __init__(self, body: int, name: str, stage: str, step: int):
+        self.body, self.name, self.stage, self.step = body, name, stage, step
+        super().__init__(
+            f"body {body} ({name!r}) got a non-finite state in stage {stage!r} of step {step}; "
+            "the world is left as it was before that step"
+        )
+
+
+class _StepFailed(Exception):
+    """Raised inside a step by the stage that found a bad body; turned into the public error."""
+
+    def __init__(self, body: int):
+        self.body = body
 
 
 class World:
@@ -68,26 +118,27 @@ class World:
     gravity : (3,) array_like
         Gravitational acceleration (m/s^2); (0, 0, 0) by default (no effect is on by default).
     integrator : {"euler", "symplectic_euler", "midpoint", "rk4"}
-        ODE method for free motion.
+        ODE method for bodies that no contact acts on.
     linear_drag, quadratic_drag, angular_drag : float
         Air resistance on every dynamic body: F = -k1 v - k2 |v| v, tau = -ka w.
     contact_response : bool
         False makes a detection-only world: contacts are found (``World.contacts``) but
         bodies pass through each other.
-    contact_solver : {"pgs", "exact"}
-        Projected Gauss-Seidel or Lemke's exact method for the contact LCP.
+    contact_solver : {"auto", "pgs", "exact"}
+        Projected Gauss-Seidel with the exact (Lemke) solve for small islands it does not
+        converge on ("auto"), PGS alone, or Lemke for every island.
     contact_iterations : int
-        Largest number of PGS sweeps per step (they stop early once converged).
+        Largest number of PGS sweeps per island and step (they stop early once converged).
     friction_sides : int
         Sides of the polygonal friction cone.
-    bounce_threshold : float
-        Contacts approaching slower than this (m/s) do not bounce.
-    slop : float
-        Penetration (m) the position projection leaves, so resting contacts persist.
-    penetration : {"toi", "projection"}
-        Step impacting islands back to the time of impact, or only project positions.
+    penetration : {"toi", "bias"}
+        Step bodies that flew into something back to their time of impact, or leave them
+        where they ended and push them out through the contact velocities.
     sleeping : bool
         Let islands at rest fall asleep (frozen, free of cost) until touched or pushed.
+    narrow_phase : {"auto", "mesh"}
+        "auto": pairs of convex bodies collide as convex polyhedra (separating axes, GJK and
+        EPA), the others through the OBBTree; "mesh": the OBBTree for every pair.
     """
 
     def __init__(
@@ -99,13 +150,12 @@ class World:
         quadratic_drag: float = 0.0,
         angular_drag: float = 0.0,
         contact_response: bool = True,
-        contact_solver: str = "pgs",
+        contact_solver: str = "auto",
         contact_iterations: int = 100,
         friction_sides: int = 8,
-        bounce_threshold: float = 0.1,
-        slop: float = 1e-4,
         penetration: str = "toi",
         sleeping: bool = True,
+        narrow_phase: str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
@@ -117,33 +167,39 @@ class World:
         self.drag = DragCoefficients(linear_drag, quadratic_drag, angular_drag)
         self._drag_array = np.array([linear_drag, quadratic_drag, angular_drag], dtype=np.float64)
         self.time = 0.0
+        self.steps_taken = 0
         self.bodies = BodyArrays()
         self.applied_forces = AppliedForces()
         self.profile = {name: {"calls": 0, "seconds": 0.0} for name in STAGE_NAMES}
-        self._gravity_force = np.zeros((0, 3))
-        self._external_force = self._gravity_force
-        self._point_forces = PointForces.empty(0)
         self.contact_response = bool(contact_response)
-        self.contact_settings = ContactSettings(
+        self._contact_settings = ContactSettings(
             solver=contact_solver,
             iterations=contact_iterations,
             friction_sides=friction_sides,
-            bounce_threshold=bounce_threshold,
-            slop=slop,
             penetration=penetration,
         )
-        self._collision = CollisionPipeline()
+        self._collision = CollisionPipeline(narrow_phase)
+        self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
-        self._impulse_cache = ImpulseCache()
-        self._resolved: dict[str, np.ndarray] | None = None
-        self.contact_info: dict = {}
-        self._pipeline: list[tuple[str, object, object]] = []
+        self._warm_start = WarmStart()
+        self._contact_stats = np.zeros(len(STATS), np.int64)
+        self._impact_count = 0
+        # what the stages hand each other (see the module docstring)
+        self._contacts = empty_contacts()  # at the bodies' current positions
+        self._acted = _NO_CONTACT_ACTED  # what this step's impulses acted at
+        self._candidates = np.zeros((0, 2), np.int64)
+        self._fast = np.zeros(0, bool)
+        self._fast_count = 0
+        self._slowest = np.inf
+        self._rewind = np.zeros(0)
+        self._rewound = False
+        self._pipeline: list[tuple] = []
         self._plan_stages()
 
     # ------------------------------------------------------------------ building the scene
     def add_body(
         self,
-        mesh: TriangleMesh,
+        mesh,
         mass: float | None = None,
         density: float | None = None,
         position=(0.0, 0.0, 0.0),
@@ -178,67 +234,19 @@ class World:
         static : bool
             An immovable body (zero inverse mass and inertia).
         name : str, optional
-            Label used in trajectories; "body<i>" by default.
+            Label used in trajectories and errors; "body<i>" by default.
         collidable : bool
             False keeps the body out of collision detection (free flight only); with fewer
             than two collidable bodies the world runs no collision stage at all.
         """
-        if not isinstance(mesh, TriangleMesh):
-            raise ValueError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
-        if mass is not None and density is not None:
-            raise ValueError("give mass or density, not both")
-        position = as_finite_array(position, "position", shape=(3,))
-        q = as_unit_quaternion(orientation)
-        v = as_finite_array(linear_velocity, "linear_velocity", shape=(3,))
-        w = as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
-        restitution = float(restitution)
-        if not 0.0 <= restitution <= 1.0:
-            raise ValueError(f"restitution must lie in [0, 1], got {restitution!r}")
-        friction = float(friction)
-        if not (math.isfinite(friction) and friction >= 0.0):
-            raise ValueError(f"friction must be finite and >= 0, got {friction!r}")
-
-        if static:
-            center = (
-                mass_properties(mesh).center_of_mass
-                if mesh.is_closed and mesh.is_consistently_oriented
-                else np.zeros(3)
-            )
-            m, inv_m = math.inf, 0.0
-            inertia, inv_inertia = np.zeros((3, 3)), np.zeros((3, 3))
-            P, L = np.zeros(3), np.zeros(3)
-        else:
-            if mass is not None:
-                props = mass_properties(mesh, mass=as_positive_scalar(mass, "mass"))
-            else:
-                props = mass_properties(mesh, density=1.0 if density is None else density)
-            center, m, inertia = props.center_of_mass, props.mass, props.inertia
-            inv_m, inv_inertia = 1.0 / m, np.linalg.inv(inertia)
-            R = quat_to_matrix(q)
-            P = m * v
-            L = R @ inertia @ R.T @ w
-        radius = float(np.linalg.norm(mesh.vertices - center, axis=1).max())
+        fields = body_fields(
+            mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
+            restitution, friction, static, collidable,
+        )  # fmt: skip
         index = self.bodies.append(
-            mesh,
-            name if name is not None else f"body{self.bodies.count}",
-            position=position,
-            orientation=q,
-            linear_momentum=P,
-            angular_momentum=L,
-            inverse_mass=inv_m,
-            inverse_inertia_body=inv_inertia,
-            mass=m,
-            inertia_body=inertia,
-            center_of_mass_local=center,
-            size=radius,
-            # a flat mesh has no thickness; a thousandth of its radius keeps sampling finite
-            thickness=max(hull_thickness(mesh.vertices), 1e-3 * radius),
-            restitution=restitution,
-            friction=friction,
-            static=bool(static),
-            collidable=bool(collidable),
+            mesh, name if name is not None else f"body{self.bodies.count}", **fields
         )
-        self._collision.add_body(mesh, center)
+        self._collision.add_body(mesh, fields["center_of_mass_local"])
         self._sleep.resize(self.bodies.count)
         self._plan_stages()
         return index
@@ -267,12 +275,24 @@ class World:
             point = as_finite_array(point, "point", shape=(3,))
             b = self.bodies
             arm = world_arm_to_body(point, b.position[body], b.orientation[body])
-        remaining = math.inf if duration is None else as_positive_scalar(duration, "duration")
+        remaining = np.inf if duration is None else as_positive_scalar(duration, "duration")
         self.applied_forces.add(body, force, arm, remaining)
         self._sleep.wake(np.array([body]))
         self._plan_stages()
 
-    # ------------------------------------------------------------------ stepping
+    @property
+    def contact_settings(self) -> ContactSettings:
+        """How contacts are resolved; assign a new ``ContactSettings`` to change it."""
+        return self._contact_settings
+
+    @contact_settings.setter
+    def contact_settings(self, settings: ContactSettings) -> None:
+        if not isinstance(settings, ContactSettings):
+            raise ValueError(f"contact_settings must be ContactSettings, got {settings!r}")
+        self._contact_settings = settings
+        self._plan_stages()
+
+    # ------------------------------------------------------------------ planning
     @property
     def stages(self) -> list[str]:
         """Names of the stages this scene needs, in pipeline order."""
@@ -293,10 +313,12 @@ class World:
             and int(np.count_nonzero(collidable)) >= 2
             and not bool(np.all(b.static[collidable]))
         )
-        always = _always
+        responds = collides and self.contact_response
         pipeline = []
         if gathers_forces:
-            pipeline.append(("forces", self._stage_forces, always))
+            pipeline.append(("forces", self._stage_forces, _always))
+        if responds:
+            pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
         if dynamic:
             pipeline.append(("integrate", self._stage_integrate, self._any_awake))
         if collides:
@@ -304,38 +326,107 @@ class World:
             pipeline.append(("broad_phase", self._stage_broad_phase, self._broad_phase_due))
             pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
             pipeline.append(("tunnelling", self._stage_tunnelling, self._has_fast_bodies))
-            if self.contact_response:
-                pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
+        if responds and self.contact_settings.penetration == "toi":
+            pipeline.append(("time_of_impact", self._stage_time_of_impact, self._may_have_hit))
+            pipeline.append(("impacts", self._stage_impacts, self._has_rewound))
         if collides and self._sleep.settings.enabled:
             # bodies come to rest through contact: without collisions nothing would sleep
             pipeline.append(("sleep", self._stage_sleep, self._sleep_due))
         self._pipeline = [(*entry, self.profile[entry[0]]) for entry in pipeline]
         self._collision_planned = collides
+        self._contacts_stale = responds
         self._collision.plan(b.static, collidable)
+        n = b.count
         self._start_position = b.position.copy()
         self._start_orientation = b.orientation.copy()
+        self._solved = np.zeros(n, bool)
+        self._fast = np.zeros(n, bool)
+        self._rewind = np.zeros(n)
+        # the kernels' body arguments, looked up once per plan (arrays change only on add_body)
+        full = b.full
+        self._state = tuple(
+            full(f) for f in ("position", "orientation", "linear_momentum", "angular_momentum")
+        )
+        self._constants = tuple(
+            full(f)
+            for f in (
+                "inverse_mass", "inverse_inertia_body", "inertia_body", "thickness",
+                "restitution", "friction",
+            )
+        )  # fmt: skip
+        self._settings = self.contact_settings.as_array(self.dt)
+        self._polygon = friction_polygon(self.contact_settings.friction_sides)
         self._sleep_changed()
         self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
         self._external_force = self._gravity_force
-        self._point_forces = PointForces.empty(b.count)
+        self._point_forces = PointForces.empty(n)
 
+    # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
-        """Advance the world by ``n`` steps of ``dt``."""
+        """Advance the world by ``n`` steps of ``dt``.
+
+        Raises
+        ------
+        NonFiniteStateError
+            If a body's state turns non-finite; the world is then as it was before the step
+            that failed.
+        """
         if int(n) != n or n < 0:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
         for _ in range(int(n)):
-            for _name, stage, guard, entry in self._pipeline:
+            if self._contacts_stale:
+                self._detect_contacts()
+            self._save()
+            for name, stage, guard, entry in self._pipeline:
                 if not guard():
                     continue
+                start = perf_counter()
+                try:
+                    stage()
+                except _StepFailed as failure:
+                    self._restore()
+                    body = failure.body
+                    raise NonFiniteStateError(
+                        body, self.bodies.names[body], name, self.steps_taken
+                    ) from None
+                entry["seconds"] += perf_counter() - start
+                entry["calls"] += 1
+            self.time += self.dt
+            self.steps_taken += 1
+            if self._stale_plan:
+                self._plan_stages()
+
+    def _detect_contacts(self) -> None:
+        """Find the contacts where the bodies are now, for the first step after the scene
+        changed: the contact stage acts on contacts found at the end of the previous step."""
+        self._contacts_stale = False
+        for name, stage, guard, entry in self._pipeline:
+            if name in ("bounds", "broad_phase", "narrow_phase") and guard():
                 start = perf_counter()
                 stage()
                 entry["seconds"] += perf_counter() - start
                 entry["calls"] += 1
-            self.time += self.dt
-            if self._stale_plan:
-                self._plan_stages()
+
+    def _save(self) -> None:
+        """Keep what a failed step must put back: the body state and the stage hand-overs."""
+        self.bodies.save_state()
+        forces = self.applied_forces
+        # applied forces change only while some are active (their durations run down)
+        self._saved = (
+            self._contacts,
+            self._acted,
+            dataclasses.replace(forces) if len(forces) else forces,
+        )
+        self._acted = _NO_CONTACT_ACTED
+        self._solved[:] = False
+        self._rewound = False
+
+    def _restore(self) -> None:
+        self.bodies.restore_state()
+        self._contacts, self._acted, self.applied_forces = self._saved
+        self._plan_stages()  # fat boxes refitted around the restored positions
 
     def _stage_forces(self) -> None:
         """Gather gravity and the applied forces active this step."""
@@ -360,97 +451,156 @@ class World:
     def _any_awake(self) -> bool:
         return self._awake
 
+    def _has_contacts(self) -> bool:
+        return self._awake and len(self._contacts["depths"]) > 0
+
+    def _stage_contacts(self) -> None:
+        """Impulses of the contacts where the bodies are now, before they move."""
+        b, c, pf = self.bodies, self._contacts, self._point_forces
+        impulses = np.empty((len(c["depths"]), 3))
+        warm = self._warm_start
+        stats = self._contact_stats
+        warm.keys, warm.values = solve_contacts(
+            self._settings, self._polygon, b.count, self._frozen,
+            c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"], c["features"],
+            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
+            pf.arm, pf.force, warm.keys, warm.values, impulses, self._solved, stats,
+        )  # fmt: skip
+        if stats[5] >= 0:
+            raise _StepFailed(int(stats[5]))
+        self._acted = dict(c, impulses=impulses)
+        self._impact_count = 0
+
     def _stage_integrate(self) -> None:
-        """Advance free motion of every dynamic body by one step."""
+        """Move every awake body: those the contact stage acted on with their new velocities,
+        the others by the ODE method."""
         b = self.bodies
         pf = self._point_forces
-        integrate_bodies(
-            INTEGRATORS[self.integrator],
-            self.dt,
-            b.count,
-            self._frozen,
-            b.full("position"),
-            b.full("orientation"),
-            b.full("linear_momentum"),
-            b.full("angular_momentum"),
-            b.full("inverse_mass"),
-            b.full("inverse_inertia_body"),
-            self._external_force,
-            self._drag_array,
-            pf.start,
-            pf.arm,
-            pf.force,
+        bad = integrate_bodies(
+            INTEGRATORS[self.integrator], self.dt, b.count, self._frozen, self._solved,
+            *self._state, *self._constants[:2],
+            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
             # where the step started: fast bodies are swept from here (no tunnelling)
-            self._collision_planned,
-            self._start_position,
-            self._start_orientation,
-        )
+            self._collision_planned, self._start_position, self._start_orientation,
+        )  # fmt: skip
+        if bad >= 0:
+            raise _StepFailed(bad)
 
     def _stage_bounds(self) -> None:
         """Fast bodies (moved further than their own thickness) and fat boxes, refitted if a
         moving body left its own."""
-        self._collision.bounds(self.bodies, self._frozen, self._start_position, self.dt)
-
-    def _has_fast_bodies(self) -> bool:
-        return self._awake and self._collision.fast_count > 0
-
-    def _stage_tunnelling(self) -> None:
-        """Time-of-impact sampling for fast bodies only: put back what passed through."""
-        self._collision.sweep(
-            self.bodies, self._collision.fast, self._start_position, self._start_orientation
+        self._fast, self._fast_count, self._slowest = self._collision.bounds(
+            self.bodies, self._frozen, self._start_position, self.dt
         )
 
     def _broad_phase_due(self) -> bool:
+        # not due: no fat pairs, so the last call already left no candidates and no contacts
         return self._awake and self._collision.broad_phase_due
 
     def _stage_broad_phase(self) -> None:
         """Sweep-and-prune on the fat boxes if they changed; candidate pairs with at least one
         moving body and overlapping tight boxes."""
-        self._collision.broad_phase(self.bodies, self._frozen)
+        self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
+        if len(self._candidates) == 0:
+            self._contacts = empty_contacts()  # the narrow phase will not run this step
 
     def _has_candidates(self) -> bool:
-        return self._awake and len(self._collision.candidate_pairs) > 0
+        return self._awake and len(self._candidates) > 0
 
     def _stage_narrow_phase(self) -> None:
-        """OBBTree contacts of the candidate pairs; a touched sleeping island wakes."""
-        self._collision.narrow_phase(self.bodies)
-        if self._sleep.any_asleep and self._sleep.wake_touched(
-            self._collision.contacts, self.bodies.static
-        ):
+        """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
+        the OBBTree); a touched sleeping island wakes."""
+        self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
+        if self._sleep.any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
             self._sleep_changed()
             # the woken islands' own contacts were not candidates: find them now
-            self._collision.broad_phase(self.bodies, self._frozen)
-            self._collision.narrow_phase(self.bodies)
+            self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
+            self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
 
-    def _has_contacts(self) -> bool:
-        return self._awake and len(self._collision.contacts["depths"]) > 0
+    def _has_fast_bodies(self) -> bool:
+        return self._awake and self._fast_count > 0
 
-    def _stage_contacts(self) -> None:
-        """Impulses with restitution and friction, time of impact, position projection."""
-        self._resolved, self.contact_info = resolve_contacts(
-            self.bodies,
-            self._collision.contacts,
-            self._external_force,
-            self.dt,
-            self.contact_settings,
-            self._impulse_cache,
-            self._collision,
+    def _stage_tunnelling(self) -> None:
+        """Sampling along the step for fast bodies only: put back what passed through."""
+        self._contacts, _ = self._collision.sweep(
+            self.bodies, self._candidates, self._contacts, self._fast, self._start_position,
+            self._start_orientation,
+        )  # fmt: skip
+
+    def _may_have_hit(self) -> bool:
+        """Whether a contact has a body that flew freely this step (neither resting nor
+        moved by the contact stage): only such a body can have run into something."""
+        if not self._has_contacts():
+            return False
+        c = self._contacts
+        return any_free_body(c["body_a"], c["body_b"], self._frozen, self._solved)
+
+    def _stage_time_of_impact(self) -> None:
+        """Bodies in free flight that ran into something go back to when they touched."""
+        b, c = self.bodies, self._contacts
+        n = b.count
+        movers = ~(self._frozen | self._solved[:n])
+        hits, v, w = find_hits(
+            n, self._frozen, movers, c["body_a"], c["body_b"], c["points"], c["normals"],
+            c["depths"], *self._state, *self._constants[:2],
+        )  # fmt: skip
+        if not hits.any():
+            return
+        acceleration = self._external_force * b.inverse_mass[:, None]
+        self._rewind, self._contacts = step_back_to_impact(
+            self._collision, b, c, hits, movers, v, w, acceleration, self.dt
         )
+        rewound = self._rewind > 0
+        self._rewound = bool(rewound.any())
+        # the stepped-back bodies carry the velocity of their time of impact
+        b.linear_momentum[rewound] = v[rewound] / b.inverse_mass[rewound, None]
+
+    def _has_rewound(self) -> bool:
+        return self._rewound
+
+    def _stage_impacts(self) -> None:
+        """Collisions at the time of impact, then the rest of the step for those bodies."""
+        b, c, pf = self.bodies, self._contacts, self._point_forces
+        impulses = np.zeros((len(c["depths"]), 3))
+        stats, resolved = resolve_impacts(
+            self._settings, self._polygon, b.count, self._frozen, self._rewind,
+            c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"],
+            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
+            pf.arm, pf.force, impulses,
+        )  # fmt: skip
+        if stats[5] >= 0:
+            raise _StepFailed(int(stats[5]))
+        self._rewind[:] = 0.0
+        hit = {key: value[resolved] for key, value in c.items()}
+        hit["impulses"] = impulses[resolved]
+        self._acted = {key: np.concatenate([self._acted[key], hit[key]]) for key in hit}
+        self._impact_count = int(stats[0])
 
     def _sleep_due(self) -> bool:
-        return self._awake and self._sleep.update_due(
-            self._collision.slowest_speed2, self._has_contacts()
-        )
+        return self._awake and self._sleep.update_due(self._slowest, self._has_contacts())
 
     def _stage_sleep(self) -> None:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
-        contacts = self._collision.contacts if self._has_contacts() else empty_contacts()
-        fell = self._sleep.update(b, contacts, self.dt)
+        fell = self._sleep.update(b, self._contacts, self.dt)
         if len(fell):
             b.linear_momentum[fell] = 0.0
             b.angular_momentum[fell] = 0.0
             self._sleep_changed()
+            # contacts between sleeping (or static) bodies need no solving
+            c = self._contacts
+            active = ~(self._frozen[c["body_a"]] & self._frozen[c["body_b"]])
+            self._contacts = {key: value[active] for key, value in c.items()}
+
+    @property
+    def contact_info(self) -> dict:
+        """What the last contact stage did: ``islands``, PGS ``sweeps`` (in all) and
+        ``max_sweeps`` (of one island), ``exact_islands`` solved by Lemke's method,
+        ``unconverged`` islands (PGS at its sweep limit, or an exact solve that fell back),
+        and ``impacts``, islands resolved at their time of impact in the last step."""
+        info = dict(zip(STATS[:5], self._contact_stats[:5].tolist(), strict=True))
+        info["impacts"] = self._impact_count
+        return info
 
     @property
     def sleeping(self) -> np.ndarray:
@@ -462,16 +612,18 @@ class World:
         """Contacts of the last step, world frame.
 
         Keys: ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3), normals from
-        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b];
-        ``impulses`` (c, 3) (normal, t1, t2) applied by the contact stage. With a response,
-        these are the contacts the impulses acted at (for an impact, those at the time of
-        impact); in a detection-only world, the narrow phase's contacts with zero impulses.
+        body_b towards body_a; ``depths`` (c,); ``faces`` (c, 2) [face of a, face of b]
+        (-1 for convex pairs); ``features`` (c,) int64 feature ids of convex pairs' contacts,
+        the same from step to step while their features are (-1 for mesh pairs);
+        ``impulses`` (c, 3) (normal, t1, t2). With a response, these are the contacts the
+        step's impulses acted at: those found where the bodies were at the start of the step,
+        and those of collisions at their time of impact. In a detection-only world, the
+        contacts the narrow phase found at the end of the step, with zero impulses.
         """
-        if self.contact_response and self._resolved is not None and self._has_contacts():
-            source = self._resolved
+        if self.contact_response:
+            source = self._acted
         else:
-            source = dict(self._collision.contacts)
-            source["impulses"] = np.zeros((len(source["depths"]), 3))
+            source = dict(self._contacts, impulses=np.zeros((len(self._contacts["depths"]), 3)))
         return {key: value.copy() for key, value in source.items()}
 
     # ------------------------------------------------------------------ accessors

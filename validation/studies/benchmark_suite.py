@@ -50,6 +50,9 @@ class BenchmarkSuiteStudy:
         ``("motion",)``); none by default.
     scaling_tests : tuple of str, optional
         Test functions drawn in the scaling figure; all by default.
+    peer_setup : str
+        How each peer is configured, in words (defaults, or what is tuned and why); the
+        report states it beside the tables.
     """
 
     def __init__(
@@ -66,6 +69,7 @@ class BenchmarkSuiteStudy:
         ours_prefix=None,
         peer_series_keys=(),
         scaling_tests=None,
+        peer_setup="",
     ):
         self.NAME = name
         self.TITLE = title
@@ -80,6 +84,7 @@ class BenchmarkSuiteStudy:
         self.ours_prefix = ours_prefix
         self.peer_series_keys = tuple(peer_series_keys)
         self.scaling_tests = None if scaling_tests is None else tuple(scaling_tests)
+        self.peer_setup = peer_setup
 
     def cases(self, scale: str) -> list[Case]:
         """One timed case: the whole suite (or its ``scale`` subset) in one pytest run."""
@@ -133,6 +138,7 @@ class BenchmarkSuiteStudy:
             "min_ratio": min(ratios, default=None),
             "max_ratio": max(ratios, default=None),
             "peers": sorted({c["peer"] for c in comparisons}),
+            "peer_setup": self.peer_setup,
             "medians": [
                 {
                     "name": b["name"],

@@ -18,6 +18,13 @@ _STUDY = BenchmarkSuiteStudy(
     series_key=("engine", "phase"),
     size_label="cubes N",
     peer_series_keys=("phase",),
+    peer_setup=(
+        "pybullet runs without its #3094 restitution tuning (nothing bounces here) and with "
+        "damping 0, as in our scene. Like is compared with like: falling, both engines at "
+        "their defaults; at rest and asleep, ours at its defaults against pybullet with "
+        "sleeping enabled (ACTIVATION_STATE_ENABLE_SLEEPING; its multibodies never sleep by "
+        "default); at rest and awake, ours with sleeping=False against pybullet's defaults."
+    ),
 )
 
 NAME = _STUDY.NAME

@@ -18,13 +18,21 @@ from scipy.spatial.transform import Rotation
 __all__ = [
     "BodySpec",
     "SceneSpec",
+    "build_mujoco",
     "build_pybullet",
     "build_world",
     "card_house",
     "cube_stack",
+    "dropped_plate",
     "elastic_pile",
     "floor",
+    "heavy_on_light",
+    "poured_pile",
     "pyramid",
+    "resting_grid",
+    "resting_row",
+    "scale_ball",
+    "scale_column",
     "thin_plate",
 ]
 
@@ -101,11 +109,19 @@ def build_world(spec: SceneSpec, dt: float, **options):
     return world
 
 
-def build_pybullet(spec: SceneSpec, dt: float):
-    """The scene in pybullet, configured per pybullet issue #3094 (see ``pybullet_contact``)."""
+def build_pybullet(spec: SceneSpec, dt: float, configuration: str = "defaults", sleeping=True):
+    """The scene in pybullet, in one of the configurations of
+    :mod:`validation.pybullet_contact` ("defaults" or "restitution"); ``sleeping=False``
+    keeps its bodies awake."""
     from validation.pybullet_contact import PybulletScene
 
-    scene = PybulletScene(dt, gravity=spec.gravity, floor_half_extents=None)
+    scene = PybulletScene(
+        dt,
+        gravity=spec.gravity,
+        floor_half_extents=None,
+        configuration=configuration,
+        sleeping=sleeping,
+    )
     for body in spec.bodies:
         mass = 0.0 if body.mass is None else body.mass
         if body.shape == "box":
@@ -130,6 +146,18 @@ def build_pybullet(spec: SceneSpec, dt: float):
                 physicsClientId=scene.client,
             )
     return scene
+
+
+def build_mujoco(spec: SceneSpec, dt: float):
+    """The scene in MuJoCo at its defaults (:mod:`validation.mujoco_contact`); restitution
+    is not carried over (MuJoCo's contacts are soft), so use it for resting scenes."""
+    from validation.mujoco_contact import MujocoScene
+
+    shapes = []
+    for body in spec.bodies:
+        size = 0.5 * np.asarray(body.size) if body.shape == "box" else np.asarray(body.size)
+        shapes.append((body.shape, size, body.mass, body.position, body.orientation, body.friction))
+    return MujocoScene(dt, spec.gravity, shapes)
 
 
 def floor(size: float = 4.0, centre=(0.0, 0.0), restitution=0.0, friction=0.5) -> BodySpec:
@@ -228,4 +256,106 @@ def elastic_pile(radius=0.25, layers=2) -> SceneSpec:
                 bodies.append(
                     BodySpec("sphere", (radius,), 1.0, (x, y, z), restitution=1.0, friction=0.0)
                 )
+    return SceneSpec(bodies)
+
+
+DENSITY = 2000.0  # kg/m^3, the scale cases' material
+
+
+def _scale_floor(width: float) -> BodySpec:
+    """A static floor ``width`` wide and a tenth as thick, its top face at z = 0."""
+    return BodySpec("box", (width, width, width / 10.0), None, (0.0, 0.0, -width / 20.0))
+
+
+def scale_column(edge: float, count: int = 1) -> SceneSpec:
+    """``count`` cubes of edge ``edge`` and density 2000 exactly touching in a column on a
+    floor 40 edges wide: the same scene at every scale."""
+    mass = DENSITY * edge**3
+    bodies = [_scale_floor(40.0 * edge)]
+    for i in range(count):
+        bodies.append(BodySpec("box", (edge, edge, edge), mass, (0.0, 0.0, edge * (0.5 + i))))
+    return SceneSpec(bodies)
+
+
+def scale_ball(diameter: float) -> SceneSpec:
+    """A ball (icosphere) of density 2000 resting on a floor 40 diameters wide."""
+    import thesis_rbd as rbd
+
+    radius = 0.5 * diameter
+    mesh = rbd.shapes.icosphere(radius, 3)
+    mass = rbd.mass_properties(mesh, density=DENSITY).mass
+    # the icosphere's lowest vertex touches the floor
+    lowest = -mesh.vertices[:, 2].min()
+    return SceneSpec(
+        [_scale_floor(40.0 * diameter), BodySpec("sphere", (radius,), mass, (0.0, 0.0, lowest))]
+    )
+
+
+def dropped_plate(thickness: float, tilt_degrees: float = 0.0) -> SceneSpec:
+    """A square plate 50 thicknesses wide and ``thickness`` thick (density 2000), its centre
+    dropped from 25 thicknesses above the floor, tilted by ``tilt_degrees`` about x."""
+    width = 50.0 * thickness
+    rotation = Rotation.from_euler("x", tilt_degrees, degrees=True)
+    return SceneSpec(
+        [
+            _scale_floor(40.0 * width),
+            BodySpec(
+                "box",
+                (width, width, thickness),
+                DENSITY * width * width * thickness,
+                (0.0, 0.0, 25.0 * thickness),
+                orientation=tuple(rotation.as_quat()),
+            ),
+        ]
+    )
+
+
+def heavy_on_light(heavy: float = 100.0, light: float = 1.0) -> SceneSpec:
+    """A unit cube of ``heavy`` kg resting on one of ``light`` kg on a floor."""
+    return SceneSpec(
+        [
+            _scale_floor(40.0),
+            BodySpec("box", (1.0, 1.0, 1.0), light, (0.0, 0.0, 0.5)),
+            BodySpec("box", (1.0, 1.0, 1.0), heavy, (0.0, 0.0, 1.5)),
+        ]
+    )
+
+
+def resting_row(count: int, spacing: float = 1.5) -> SceneSpec:
+    """``count`` unit cubes (1 kg, friction 0.5) resting on a floor in a row ``spacing``
+    apart, each touching the floor exactly."""
+    bodies = [floor(spacing * count + 4.0)]
+    for i in range(count):
+        x = (i - (count - 1) / 2) * spacing
+        bodies.append(BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, 0.0, 0.5)))
+    return SceneSpec(bodies)
+
+
+def resting_grid(count: int, spacing: float = 1.5) -> SceneSpec:
+    """``count`` unit cubes resting on a floor in a square grid ``spacing`` apart."""
+    side = int(np.ceil(np.sqrt(count)))
+    bodies = [floor(spacing * side + 4.0)]
+    for k in range(count):
+        i, j = divmod(k, side)
+        x, y = (i - (side - 1) / 2) * spacing, (j - (side - 1) / 2) * spacing
+        bodies.append(BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, y, 0.5)))
+    return SceneSpec(bodies)
+
+
+def poured_pile(
+    count: int = 256, columns: int = 4, spacing: float = 1.8, seed: int = 1
+) -> SceneSpec:
+    """``count`` unit cubes in random orientations, in a lattice of ``columns`` x ``columns``
+    stacks ``spacing`` apart, released above a floor: after a few seconds they lie in a
+    tumbled pile."""
+    rng = np.random.default_rng(seed)
+    bodies = [floor(columns * spacing * 4.0)]
+    for k in range(count):
+        layer, cell = divmod(k, columns * columns)
+        i, j = divmod(cell, columns)
+        x, y = (i - (columns - 1) / 2) * spacing, (j - (columns - 1) / 2) * spacing
+        orientation = tuple(Rotation.random(random_state=rng).as_quat())
+        bodies.append(
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, y, 1.0 + spacing * layer), orientation)
+        )
     return SceneSpec(bodies)

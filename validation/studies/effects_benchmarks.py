@@ -17,6 +17,10 @@ _STUDY = BenchmarkSuiteStudy(
     series_key="bodies",
     size_label="bodies N",
     ours_prefix="full step, N =",
+    peer_setup=(
+        "The peer, 'integration alone', is the library itself: the same bodies added with "
+        "collidable=False, whose only stage is integration."
+    ),
 )
 
 NAME = _STUDY.NAME

@@ -5,7 +5,9 @@ plates) at random poses, placed so that about half of them overlap. For each cas
 :func:`thesis_rbd.collide` answers "first" (yes/no) and "all" (every intersecting triangle
 pair), with an OBBTree variant that cycles through leafless/leaf, triangle/hull fit and
 float64/float32; python-fcl (OBBRSS) answers with ``num_max_contacts`` 1 and 100000. The AABB
-tree of :mod:`validation.aabb_tree` answers "all" too (an independent traversal). A case id
+tree of :mod:`validation.aabb_tree` answers "all" too, with its own traversal and its own
+separating-axis triangle test (:mod:`validation.triangle_sat`), sharing no code with the
+library's narrow phase. A case id
 ``family-seed`` regenerates any disagreement exactly (:func:`generate_case`).
 """
 
@@ -109,8 +111,8 @@ def generate_case(family: str, seed: int):
 def run(params: dict) -> dict:
     """Agreement counts of one chunk, and the ids of the disagreeing cases."""
     import thesis_rbd as rbd
-    from thesis_rbd.collision._fcl import fcl_collide, fcl_model, fcl_object
     from validation.aabb_tree import AABBTree, aabb_collide
+    from validation.fcl_adapter import fcl_collide, fcl_model, fcl_object
 
     family = params["family"]
     counts = {

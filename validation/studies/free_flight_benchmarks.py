@@ -18,6 +18,10 @@ _STUDY = BenchmarkSuiteStudy(
     series_key="integrator",
     size_label="bodies N",
     peer_series={"test_free_flight_step_numpy_peer": "numpy_peer"},
+    peer_setup=(
+        "The peer is a vectorised NumPy RK4 of the same equations, written for this "
+        "comparison (it agrees with the kernel to round-off over one step)."
+    ),
 )
 
 NAME = _STUDY.NAME

@@ -76,8 +76,6 @@ def cases(scale: str) -> list[Case]:
 def _solve(world, solver: str, iterations: int, warm: bool, repeats: int):
     """One step from a copy of ``world``: (linear velocities, angular velocities, contact
     stage seconds (least of ``repeats``), contact info)."""
-    from thesis_rbd.dynamics.response import ImpulseCache
-
     best = np.inf
     for _ in range(repeats):
         trial = copy.deepcopy(world)
@@ -85,9 +83,9 @@ def _solve(world, solver: str, iterations: int, warm: bool, repeats: int):
             trial.contact_settings, solver=solver, iterations=iterations
         )
         if not warm:
-            if not hasattr(trial, "_impulse_cache"):
-                raise RuntimeError("World no longer keeps its warm start in _impulse_cache")
-            trial._impulse_cache = ImpulseCache()
+            if not hasattr(trial, "_warm_start"):
+                raise RuntimeError("World no longer keeps its warm start in _warm_start")
+            trial._warm_start.clear()
         before = trial.profile["contacts"]["seconds"]
         trial.step()
         best = min(best, trial.profile["contacts"]["seconds"] - before)
@@ -127,7 +125,7 @@ def run(params: dict) -> dict:
         "contacts": contacts,
         "bodies": len(dynamic),
         "exact_seconds": exact_seconds,
-        "exact_fallbacks": info.get("lemke_fallbacks"),
+        "exact_fallbacks": info.get("unconverged"),
         "pgs": pgs,
     }
 

@@ -3,8 +3,10 @@
 High spin: the 1 x 2 x 3 box of mass 1 spins at w0 = (30, 0, 40) rad/s (50 rad/s, 0.21 rad per
 step at dt = 1/240) for 10^6 steps (quick: 10^5) with each integrator; the quaternion norm,
 the kinetic energy and the world angular momentum are sampled 100 times along the run. A
-torque-free body keeps its energy and angular momentum exactly, so any change is the
-integrator's drift.
+torque-free body keeps its energy and angular momentum exactly, so any change of energy is
+the integrator's drift, judged against a bound (physics: conserved; 0.1 % allowed). The
+quaternion norm and L are shown but not judged: every integrator renormalises q after each
+step and carries L as state, so both hold by construction.
 
 Far from the origin: the same tumbling motion as the integrators study, with a constant
 linear velocity, starts at (d, d, d) for growing d; the position error against the exact
@@ -37,9 +39,9 @@ CHECKPOINTS = 100
 INTEGRATORS = ("euler", "symplectic_euler", "midpoint", "rk4")
 FAR_METHODS = ("rk4", "pybullet_multibody")
 
-# Pass/fail bounds of the high-spin run (requirements, stated before the run).
-NORM_BOUND = 1e-12  # | |q| - 1 | at every checkpoint, every integrator
-ENERGY_BOUND = 1e-3  # relative kinetic-energy drift at the end, every integrator
+# Pass/fail bound of the high-spin run: torque-free motion conserves kinetic energy (physics);
+# the relative drift at the end may be at most this, for every integrator.
+ENERGY_BOUND = 1e-3
 
 STEPS = {"full": 1_000_000, "quick": 100_000, "tiny": 10_000}
 OFFSETS = {
@@ -177,16 +179,12 @@ def summarise(records: list[dict], figures_dir) -> Section:
     steps = next(iter(spin.values()))["steps"]
     high_spin = {}
     for method, result in spin.items():
-        energy_bound = ENERGY_BOUND
         high_spin[method] = {
             "label": METHOD_STYLES[method]["label"],
             "max_norm_error": result["max_norm_error"],
-            "norm_pass": result["max_norm_error"] <= NORM_BOUND,
             "final_energy_drift": result["final_energy_drift"],
-            "energy_bound": energy_bound,
-            "energy_pass": None
-            if energy_bound is None
-            else result["final_energy_drift"] <= energy_bound,
+            "energy_bound": ENERGY_BOUND,
+            "energy_pass": result["final_energy_drift"] <= ENERGY_BOUND,
             "max_momentum_change": result["max_momentum_change"],
         }
     far_rows = []
@@ -214,12 +212,10 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "rate": RATE,
         "steps": steps,
         "simulated_seconds": steps / RATE,
-        "norm_bound": NORM_BOUND,
         "energy_bound": ENERGY_BOUND,
         "high_spin": high_spin,
         "far_seconds": far[0]["params"]["seconds"] if far else None,
         "far": far_rows,
-        "all_norms_pass": all(v["norm_pass"] for v in high_spin.values()),
         "library_far_all_pass": all(r["position_pass"] for r in far_rows if r["method"] == "rk4"),
     }
     tables = [
@@ -228,18 +224,16 @@ def summarise(records: list[dict], figures_dir) -> Section:
             f"at dt = 1/{RATE} s",
             columns=[
                 "integrator",
-                "max | |q| - 1 |",
-                f"pass (<= {format_number(NORM_BOUND)})",
+                "max | |q| - 1 | (by construction)",
                 "final energy drift",
                 "energy bound",
                 "pass",
-                "max |L - L0|",
+                "max |L - L0| (by construction)",
             ],
             rows=[
                 [
                     v["label"],
                     format_number(v["max_norm_error"]),
-                    format_number(v["norm_pass"]),
                     format_number(v["final_energy_drift"]),
                     format_number(v["energy_bound"]),
                     format_number(v["energy_pass"]),
@@ -289,13 +283,13 @@ def _spin_figure(spin, figures_dir):
         style.pop("label")
         style["linestyle"] = ":"
         ax.plot(result["step"], np.maximum(result["norm_error"], 1e-17), **style)
-    ax.axhline(NORM_BOUND, color="0.5", linewidth=0.8, linestyle="-.")
+    ax.axhline(ENERGY_BOUND, color="0.5", linewidth=0.8, linestyle="-.")
     ax.legend(fontsize=8)
     save_figure(fig, figures_dir / "long_runs_high_spin.png")
     return Figure(
         "long_runs_high_spin.png",
         "Kinetic-energy drift and quaternion-norm error along the run (floored at 1e-17 for "
-        "the log axis); dash-dotted line: the norm bound.",
+        "the log axis); dash-dotted line: the energy bound.",
     )
 
 

@@ -19,6 +19,11 @@ _STUDY = BenchmarkSuiteStudy(
     size_label="triangles per torus",
     peer_series_keys=("mode",),
     scaling_tests=("test_scaling_all_pairs",),
+    peer_setup=(
+        "python-fcl runs at its defaults: one BVHModel (OBBRSS boxes) per mesh and "
+        "fcl.collide with num_max_contacts 1 for 'first' and 100000 for 'all' and 'contacts' "
+        "(enable_contact on for 'contacts')."
+    ),
 )
 
 NAME = _STUDY.NAME

@@ -100,7 +100,7 @@ def run(params: dict) -> dict:
 
 
 def _run_fcl(mesh, poses, repeats):
-    from thesis_rbd.collision._fcl import fcl_model, fcl_object, fcl_transform, require_fcl
+    from validation.fcl_adapter import fcl_model, fcl_object, fcl_transform, require_fcl
 
     fcl = require_fcl()
     build = _median_seconds(lambda: fcl_model(mesh), repeats)

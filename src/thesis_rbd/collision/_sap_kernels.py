@@ -152,9 +152,8 @@ def _touch(keys, flags, slot, touched, ntouched):
 def _endpoint_values(box, a, out):
     """``out[code]`` = coordinate on axis ``a`` of endpoint ``code``: a sequential copy.
 
-    The records' refresh then gathers from 16 bytes per box instead of a 48-byte row, a
-    table a third of the size that mostly stays in cache (measured at n = 10^5: a frame of
-    11-16 ms instead of 18-21 ms).
+    The records' refresh then gathers from 16 bytes per box instead of a 48-byte row: a table
+    a third of the size, which at large n mostly stays in cache.
     """
     for i in range(box.shape[0]):
         out[2 * i] = box[i, 2 * a]
@@ -167,9 +166,8 @@ def _refresh_values(values, val, ep, col, count, a):
 
     Returns the first record whose key is below its predecessor's (``count[a]`` when none):
     the insertion sort starts there. The gather and the order check are separate loops
-    without branches, which the compiler vectorises (measured: 1000 far-apart boxes 24 ->
-    22 us per update, 100k coherent 11-14 -> 10-11 ms per frame, A/B); the first
-    out-of-order record is looked for only when there is one.
+    without branches, so that the compiler vectorises them; the first out-of-order record is
+    looked for only when there is one.
     """
     va = val[a]
     ea = ep[a]
@@ -198,8 +196,8 @@ def _sort_axis(val, ep, col, box_b, box_c, cells_b, cells_c, gc, a, p, m, log_ke
                swaps, budget):  # fmt: skip
     """Insertion-sort the records of axis ``a`` from element ``p`` on, logging transitions.
 
-    The hot loop of the broad phase. It calls nothing and never reallocates, so numba keeps
-    it tight (a hash-table call inside it measured 4x slower); transitions go to a fixed-size
+    The hot loop of the broad phase. It calls nothing (not even the pair table) and never
+    reallocates, so that numba compiles it to a tight loop; transitions go to a fixed-size
     log that the caller applies to the pair table. A record never leaves its column: the
     column is the first part of the key, so the column array is not touched.
 

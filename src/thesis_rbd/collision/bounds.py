@@ -93,8 +93,9 @@ def update_fat_bounds(
     fast_count : int
         Number of fast bodies.
     slowest : float
-        Smallest squared speed |P / M|^2 of a moving body (inf if none): the sleep stage has
-        nothing to do while every body is faster than its tolerance.
+        Smallest (|P / M| / r)^2 of a moving body (1/s^2, inf if none), its speed in bounding
+        radii per second: the sleep stage has nothing to do while every body is faster than
+        its tolerance, which is relative to its size.
     """
     refit = everything
     fast_count = 0
@@ -109,7 +110,7 @@ def update_fat_bounds(
         fast[i] = is_fast
         fast_count += is_fast
         P, im = linear_momentum[i], inverse_mass[i]
-        slowest = min(slowest, (P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) * im * im)
+        slowest = min(slowest, (P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) * (im * im / (r * r)))
         for a in range(3):
             lower, upper = x[a] - r, x[a] + r
             if is_fast:

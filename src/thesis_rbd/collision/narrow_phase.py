@@ -17,6 +17,7 @@ from thesis_rbd.collision.collide import MERGE_FRACTION, traverse
 from thesis_rbd.collision.contacts import compute_contacts
 from thesis_rbd.collision.manifold import region_manifolds, region_normals, region_of_faces
 from thesis_rbd.collision.obbtree import OBBTree
+from thesis_rbd.collision.packed import mesh_vertices
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
 __all__ = ["GeometrySet", "any_intersection", "contacts_for_pairs"]
@@ -29,11 +30,12 @@ class GeometrySet:
     ----------
     trees : list of OBBTree
         One per distinct mesh, in order of first use.
-    node_start, vertex_start, face_start : (g + 1,) int64
-        Geometry k owns rows ``start[k]:start[k + 1]`` of the node, vertex and face arrays.
-    centers, rotations, half_extents, children : concatenated node arrays (float64, int32)
-    roots, leafless, depths : (g,) per-tree root code, variant and depth
-    vertices, faces : concatenated mesh arrays (faces index their own mesh's vertices)
+    packed_start, face_start : (g + 1,) int64
+        Geometry k owns rows ``start[k]:start[k + 1]`` of the packed and face arrays.
+    packed : (rows, 3) float64
+        The trees' packed query arrays (:mod:`.packed`: boxes and mesh), concatenated.
+    faces : (f, 3) int64
+        The meshes' faces, concatenated (each indexes its own mesh's vertices).
     merge_tolerance : (g,) float64
         Contacts of a pair closer than the larger of the two meshes' values are merged.
     """
@@ -64,17 +66,10 @@ class GeometrySet:
                 np.concatenate(arrays) if arrays else np.zeros((0, *shape), dtype), dtype=dtype
             )
 
-        self.node_start = offsets([t.node_count for t in trees])
-        self.vertex_start = offsets([len(t.mesh.vertices) for t in trees])
+        packed = [t.query_array() for t in trees]
+        self.packed_start = offsets([len(p) for p in packed])
         self.face_start = offsets([len(t.mesh.faces) for t in trees])
-        self.centers = stacked([t.centers for t in trees], (3,), np.float64)
-        self.rotations = stacked([t.rotations for t in trees], (3, 3), np.float64)
-        self.half_extents = stacked([t.half_extents for t in trees], (3,), np.float64)
-        self.children = stacked([t.children for t in trees], (2,), np.int32)
-        self.roots = np.array([t.root for t in trees], dtype=np.int64)
-        self.leafless = np.array([t.leafless for t in trees], dtype=np.bool_)
-        self.depths = np.array([t.depth for t in trees], dtype=np.int64)
-        self.vertices = stacked([t.mesh.vertices for t in trees], (3,), np.float64)
+        self.packed = stacked(packed, (3,), np.float64)
         self.faces = stacked([t.mesh.faces for t in trees], (3,), np.int64)
         self.merge_tolerance = np.array(
             [max(self.merge_fraction, MERGE_FRACTION) * t.scale for t in trees], dtype=np.float64
@@ -84,21 +79,7 @@ class GeometrySet:
 
     def arrays(self) -> tuple:
         """The flat arrays in the order ``contacts_for_pairs`` takes them."""
-        return (
-            self.node_start,
-            self.vertex_start,
-            self.face_start,
-            self.centers,
-            self.rotations,
-            self.half_extents,
-            self.children,
-            self.roots,
-            self.leafless,
-            self.depths,
-            self.vertices,
-            self.faces,
-            self.merge_tolerance,
-        )
+        return (self.packed_start, self.face_start, self.packed, self.faces, self.merge_tolerance)
 
 
 @njit
@@ -147,32 +128,22 @@ def contacts_for_pairs(
     stats : (3,) int64
         Box tests, triangle-box tests and triangle tests summed over all pairs.
     """
-    (
-        node_start, vertex_start, face_start, centers, rotations, halves, children,
-        roots, leafless, depths, vertices, faces, merge_tolerance,
-    ) = geometry_arrays  # fmt: skip
+    packed_start, face_start, packed, faces, merge_tolerance = geometry_arrays
     results = []
     stats = np.zeros(3, np.int64)
     total = 0
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
         gi, gj = geometry[i], geometry[j]
-        ni0, ni1 = node_start[gi], node_start[gi + 1]
-        nj0, nj1 = node_start[gj], node_start[gj + 1]
-        Vi = vertices[vertex_start[gi] : vertex_start[gi + 1]]
-        Vj = vertices[vertex_start[gj] : vertex_start[gj + 1]]
+        Pi = packed[packed_start[gi] : packed_start[gi + 1]]
+        Pj = packed[packed_start[gj] : packed_start[gj + 1]]
+        Vi = mesh_vertices(Pi)
+        Vj = mesh_vertices(Pj)
         Fi = faces[face_start[gi] : face_start[gi + 1]]
         Fj = faces[face_start[gj] : face_start[gj + 1]]
         Ti = _mesh_to_world(i, position, orientation, center_of_mass_local)
         Tj = _mesh_to_world(j, position, orientation, center_of_mass_local)
-        tri_pairs, bv, box, tri = traverse(
-            False,
-            centers[ni0:ni1], rotations[ni0:ni1], halves[ni0:ni1], children[ni0:ni1],
-            roots[gi], leafless[gi], Vi, Fi,
-            centers[nj0:nj1], rotations[nj0:nj1], halves[nj0:nj1], children[nj0:nj1],
-            roots[gj], leafless[gj], Vj, Fj,
-            Ti, Tj, 2 * (depths[gi] + depths[gj]) + 8,
-        )  # fmt: skip
+        tri_pairs, bv, box, tri = traverse(False, Pi, Pj, Ti, Tj)
         stats[0] += bv
         stats[1] += box
         stats[2] += tri
@@ -228,29 +199,17 @@ def any_intersection(pairs, geometry, geometry_arrays, position, orientation, ce
 
     Same arguments as ``contacts_for_pairs``; the yes/no query of time-of-impact searches.
     """
-    (
-        node_start, vertex_start, face_start, centers, rotations, halves, children,
-        roots, leafless, depths, vertices, faces, _,
-    ) = geometry_arrays  # fmt: skip
+    packed_start, _, packed, _, _ = geometry_arrays
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
         gi, gj = geometry[i], geometry[j]
-        ni0, ni1 = node_start[gi], node_start[gi + 1]
-        nj0, nj1 = node_start[gj], node_start[gj + 1]
         tri_pairs, _, _, _ = traverse(
             True,
-            centers[ni0:ni1], rotations[ni0:ni1], halves[ni0:ni1], children[ni0:ni1],
-            roots[gi], leafless[gi],
-            vertices[vertex_start[gi] : vertex_start[gi + 1]],
-            faces[face_start[gi] : face_start[gi + 1]],
-            centers[nj0:nj1], rotations[nj0:nj1], halves[nj0:nj1], children[nj0:nj1],
-            roots[gj], leafless[gj],
-            vertices[vertex_start[gj] : vertex_start[gj + 1]],
-            faces[face_start[gj] : face_start[gj + 1]],
+            packed[packed_start[gi] : packed_start[gi + 1]],
+            packed[packed_start[gj] : packed_start[gj + 1]],
             _mesh_to_world(i, position, orientation, center_of_mass_local),
             _mesh_to_world(j, position, orientation, center_of_mass_local),
-            2 * (depths[gi] + depths[gj]) + 8,
-        )  # fmt: skip
+        )
         if tri_pairs.shape[0] > 0:
             return True
     return False

@@ -30,6 +30,7 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.collision.hull import hull_moments
 from thesis_rbd.collision.obb import symmetric_eigenvectors, triangle_moments
+from thesis_rbd.collision.packed import pack_tree, packed_views
 from thesis_rbd.geometry.mesh import TriangleMesh
 
 __all__ = ["OBBTree"]
@@ -327,15 +328,15 @@ class OBBTree:
 
     Notes
     -----
-    The defaults were chosen by measurement on the thesis demo (two 5000-triangle tori,
-    ``python -m validation.bench_obbtree``): the leafless tree needs half the memory of the
-    classic one (128 vs 256 bytes per triangle in float64), builds faster (about 10 vs 16 ms)
-    and answers "first" as fast; the classic tree is about 5 % faster for all pairs (it makes
-    16 % more tests, but its leaf box tests are cheaper than the leafless tree's triangle-box
-    tests). The hull fit gives about the same number of tests on that scene and builds 4-7x
-    slower (an incremental hull per node), so the triangle fit is the default. float32
-    storage halves the memory again with the same answers (every pose agreed with
-    python-fcl) and about the same speed, since the arithmetic stays float64.
+    The defaults were chosen by measurement on the thesis demo (two 5000-triangle tori; the
+    figures are in the report's ``obbtree_variants`` study and ``python -m
+    validation.bench_obbtree``): the leafless tree needs half the memory of the classic one
+    (128 against 256 bytes per triangle in float64), builds faster and answers "first" as
+    fast; the classic tree is slightly faster for all pairs, because its leaf box tests are
+    cheaper than the leafless tree's triangle-box tests. The hull fit gives about the same
+    number of tests on that scene and builds several times slower (an incremental hull per
+    node), so the triangle fit is the default. float32 storage halves the memory again with
+    the same answers and about the same speed, since the arithmetic stays float64.
 
     Attributes
     ----------
@@ -392,14 +393,36 @@ class OBBTree:
             dtype == np.float32,
             _PAD[dtype],
         )
-        self.centers = centers.astype(dtype)
-        self.rotations = rotations.astype(dtype)
-        self.half_extents = halves.astype(dtype)
-        self.children = children
         self.root = int(root)
         self.depth = int(depth)
+        self._packed = None
+        if dtype == np.float64:
+            # The public box arrays are views into the query array (see :mod:`.packed`).
+            self._packed = pack_tree(
+                centers, rotations, halves, children, self.root, self.leafless, self.depth,
+                mesh.vertices, mesh.faces,
+            )  # fmt: skip
+            centers, rotations, halves = packed_views(self._packed)
+        self.centers = centers.astype(dtype, copy=False)
+        self.rotations = rotations.astype(dtype, copy=False)
+        self.half_extents = halves.astype(dtype, copy=False)
+        self.children = children
         for array in (self.centers, self.rotations, self.half_extents, self.children):
             array.flags.writeable = False
+
+    def query_array(self) -> np.ndarray:
+        """The packed (rows, 3) float64 array the query kernels read (:mod:`.packed`).
+
+        A float64 tree's box arrays are views into it already; a float32 tree gets a float64
+        copy of its boxes (the same, exactly representable values) on its first query, so
+        the kernels are compiled once, for float64.
+        """
+        if self._packed is None:
+            self._packed = pack_tree(
+                self.centers, self.rotations, self.half_extents, self.children, self.root,
+                self.leafless, self.depth, self._mesh.vertices, self._mesh.faces,
+            )  # fmt: skip
+        return self._packed
 
     @property
     def mesh(self) -> TriangleMesh:

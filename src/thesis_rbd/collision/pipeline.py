@@ -1,14 +1,16 @@
-"""The detection stages of a world step: bounds -> broad phase -> narrow phase.
+"""The detection stages of a world step: bounds -> broad phase -> narrow phase -> tunnelling.
 
-Rapier-style, the stages talk through explicit arrays: ``bounds`` checks every moving body
-against the fat box the broad phase keeps for it and refits the fat boxes when one was left
-(``bounds.py``); ``broad_phase`` brings the sweep-and-prune pair cache up to date only when the
-fat boxes changed, and turns its pairs into the candidate pairs worth testing (tight boxes
-overlap, never static-static, never two resting bodies); ``narrow_phase`` turns candidates
-into contacts (``contacts`` dict, world frame, normals from body_b towards body_a). Fat boxes
-only add pairs for the tight-box test, so the candidates are those of a broad phase on tight
-boxes, while bodies in steady motion need a sweep-and-prune update only every hundred steps
-or so.
+Rapier-style, the stages talk through explicit arrays that one returns and the next takes:
+``bounds`` checks every moving body against the fat box the broad phase keeps for it, refits
+the fat boxes when one was left (``bounds.py``) and returns the fast bodies; ``broad_phase``
+brings the sweep-and-prune pair cache up to date only when the fat boxes changed and returns
+the candidate pairs worth testing (tight boxes overlap, never static-static, never two resting
+bodies); ``narrow_phase`` turns candidate pairs into contacts (a dict of arrays, world frame,
+normals from body_b towards body_a); ``sweep`` puts back fast bodies that passed through
+something and returns the contacts with theirs. Fat boxes only add pairs for the tight-box
+test, so the candidates are those of a broad phase on tight boxes, while bodies in steady
+motion need a sweep-and-prune update only every hundred steps or so. What the pipeline keeps
+between steps is its own: the trees, the fat boxes and the sweep-and-prune state.
 """
 
 from __future__ import annotations
@@ -21,18 +23,25 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
+from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
+from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
 
-__all__ = ["CollisionPipeline", "empty_contacts"]
+__all__ = ["NARROW_PHASES", "CollisionPipeline", "empty_contacts"]
 
+# "auto": pairs of convex bodies by convex-polyhedron contact, the others by the OBBTree;
+# "mesh": the OBBTree for every pair
+NARROW_PHASES = ("auto", "mesh")
+
+_CONTACT_KEYS = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
 _NO_BODIES = np.zeros(0, np.int64)
 _NO_PAIRS = np.zeros((0, 2), np.int64)
 _NO_BODIES.flags.writeable = _NO_PAIRS.flags.writeable = False
 
 
 def empty_contacts() -> dict[str, np.ndarray]:
-    """A contact set with no rows."""
+    """A contact set with no rows (keys as ``CollisionPipeline.contacts_of`` returns them)."""
     return {
         "body_a": np.zeros(0, np.int64),
         "body_b": np.zeros(0, np.int64),
@@ -40,6 +49,7 @@ def empty_contacts() -> dict[str, np.ndarray]:
         "normals": np.zeros((0, 3)),
         "depths": np.zeros(0),
         "faces": np.zeros((0, 2), np.int64),
+        "features": np.zeros(0, np.int64),
     }
 
 
@@ -52,6 +62,13 @@ class CollisionPipeline:
         The distinct meshes' trees.
     geometry_of_body : (n,) int64
         Tree index of each body.
+    hulls : HullSet
+        The convex hulls of the convex meshes (narrow phase "auto").
+    hull_of_body : (n,) int64
+        Hull index of each body, -1 for a body that collides as a mesh.
+    convex_cache : tuple of arrays
+        Coherence cache of the convex pairs (``convex_contacts.empty_cache``), from the last
+        ``narrow_phase`` stage.
     box_offset, box_half : (n, 3) float64
         Mesh-frame box of each body: centre offset from the centre of mass, half-extents.
     fat : (2, n, 3) float64
@@ -59,40 +76,36 @@ class CollisionPipeline:
     tight : (2, n, 3) float64
         [lower, upper] tight world boxes of the bodies of fat pairs from the last
         ``broad_phase`` stage (a fast body's covers its whole step); other rows are stale.
-    fast : (n,) bool
-        Bodies that moved further than their radius in the last step.
-    fast_count : int
-        Number of them.
-    slowest_speed2 : float
-        Smallest squared speed of a moving dynamic body at the last ``bounds`` stage.
     fat_pairs : (f, 2) int64
         Pairs of overlapping fat boxes that may ever collide (both collidable, not both
         static), from the last sweep-and-prune update.
     pair_members : (m,) int64
         The bodies of ``fat_pairs``.
-    candidate_pairs : (p, 2) int64
-        Body pairs for the narrow phase from the last ``broad_phase`` stage.
-    contacts : dict of arrays
-        From the last ``narrow_phase`` stage (see ``empty_contacts``).
     stats : dict
-        Counters of the last stage calls (pairs, bv_tests, tri_tests, contacts).
+        Counters of the last stage calls (candidate_pairs, bv_tests, tri_tests, contacts).
     """
 
-    def __init__(self):
+    def __init__(self, narrow_phase: str = "auto"):
+        if narrow_phase not in NARROW_PHASES:
+            raise ValueError(
+                f"unknown narrow_phase {narrow_phase!r}; choose one of {list(NARROW_PHASES)}"
+            )
+        self.narrow_phase_kind = narrow_phase
         self.geometry = GeometrySet()
         self.geometry_of_body = np.zeros(0, np.int64)
+        self.hulls = HullSet()
+        self.hull_of_body = np.zeros(0, np.int64)
+        self.convex_cache = empty_cache()
+        self._hull_arrays = self.hulls.arrays()
+        self._every_body_convex = self._any_body_convex = False
         self.box_offset = np.zeros((0, 3))
         self.box_half = np.zeros((0, 3))
         self.sap = SweepAndPrune()
         self.tight = np.zeros((2, 0, 3))
         self.fat = np.zeros((2, 0, 3))
-        self.fast = np.zeros(0, bool)
-        self.fast_count = 0
-        self.slowest_speed2 = 0.0
+        self._fast = np.zeros(0, bool)
         self.fat_pairs = np.zeros((0, 2), np.int64)
         self.pair_members = np.zeros(0, np.int64)
-        self.candidate_pairs = np.zeros((0, 2), np.int64)
-        self.contacts = empty_contacts()
         self.stats: dict[str, int] = {}
         self._may_pair = np.zeros(0, bool)
         self._static = np.zeros(0, bool)
@@ -107,6 +120,11 @@ class CollisionPipeline:
         """
         g = self.geometry.geometry_of(mesh)
         self.geometry_of_body = np.append(self.geometry_of_body, g)
+        hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
+        self.hull_of_body = np.append(self.hull_of_body, hull)
+        self._hull_arrays = self.hulls.arrays()
+        self._every_body_convex = bool(np.all(self.hull_of_body >= 0))
+        self._any_body_convex = bool(np.any(self.hull_of_body >= 0))
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
         lower, upper = self.geometry.local_lower[g], self.geometry.local_upper[g]
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
@@ -127,10 +145,10 @@ class CollisionPipeline:
         self._may_pair = collidable.copy()
         if self.tight.shape[1] != n:
             self.tight, self.fat = np.zeros((2, n, 3)), np.zeros((2, n, 3))
-            self.fast = np.zeros(n, bool)
+            self._fast = np.zeros(n, bool)
         self._refit_all = True
 
-    def bounds(self, bodies, frozen, start_position, dt) -> None:
+    def bounds(self, bodies, frozen, start_position, dt) -> tuple[np.ndarray, int, float]:
         """Find the fast bodies; refit the fat boxes if a moving body left its own.
 
         Parameters
@@ -142,26 +160,36 @@ class CollisionPipeline:
             Centres of mass at the start of the step: a fast body's boxes cover its whole step.
         dt : float
             Step length (s); fat boxes leave room for ``PREDICTION_STEPS`` steps of motion.
+
+        Returns
+        -------
+        fast : (n,) bool
+            Bodies that moved further than their thickness this step (a view the next call
+            overwrites).
+        fast_count : int
+        slowest : float
+            Smallest (speed / radius)^2 (1/s^2) of a moving body (inf if none).
         """
         b = bodies
         self._start_position = start_position
-        refit, self.fast_count, self.slowest_speed2 = update_fat_bounds(
+        refit, fast_count, slowest = update_fat_bounds(
             b.count, self._refit_all, frozen, b.full("size"), b.full("thickness"),
             b.full("position"), start_position, b.full("linear_momentum"), b.full("inverse_mass"),
-            PREDICTION_STEPS * dt, self.fat, self.fast,
+            PREDICTION_STEPS * dt, self.fat, self._fast,
         )  # fmt: skip
         if self._refit_all:
             # static and sleeping bodies do not move: their fat boxes are their tight boxes
             self._tight_bounds(b, np.flatnonzero(frozen[: b.count]), self.fat)
             self._refit_all = False
         self._fat_changed |= refit
+        return self._fast, fast_count, slowest
 
     @property
     def broad_phase_due(self) -> bool:
         """Whether ``broad_phase`` has work: fat boxes changed, or fat pairs to filter."""
         return self._fat_changed or len(self.fat_pairs) > 0
 
-    def sweep(self, bodies, fast, start_position, start_orientation) -> int:
+    def sweep(self, bodies, pairs, contacts, fast, start_position, start_orientation):
         """Catch fast bodies that passed through something during the step.
 
         For each candidate pair with a fast body, the fast body's motion is sampled at
@@ -173,12 +201,28 @@ class CollisionPipeline:
         point out the far side. The rest of the step is lost for that body, as in Bullet's
         motion clamping.
 
-        Returns the number of bodies put back.
+        Parameters
+        ----------
+        bodies : BodyArrays
+            Positions and orientations of caught bodies are put back.
+        pairs : (p, 2) int64
+            This step's candidate pairs.
+        contacts : dict of arrays
+            This step's contacts.
+        fast : (n,) bool
+        start_position, start_orientation : (n, 3), (n, 4) float64
+            Where each body started the step.
+
+        Returns
+        -------
+        contacts : dict of arrays
+            ``contacts`` with the caught bodies' contacts found again where they were put.
+        caught : int
+            Number of bodies put back.
         """
-        pairs = self.candidate_pairs
         involved = fast[pairs[:, 0]] | fast[pairs[:, 1]]
         if not involved.any():
-            return 0
+            return contacts, 0
         position, orientation = bodies.full("position"), bodies.full("orientation")
         caught = []
         for i, j in pairs[involved]:
@@ -199,23 +243,21 @@ class CollisionPipeline:
                     break
             else:
                 position[mover], orientation[mover] = end_position, end_orientation
-        if caught:
-            moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
-            fresh = self.contacts_of(bodies, np.ascontiguousarray(pairs[moved]))
-            keep = ~(
-                np.isin(self.contacts["body_a"], caught) | np.isin(self.contacts["body_b"], caught)
-            )
-            self.contacts = {
-                key: np.concatenate([self.contacts[key][keep], fresh[key]]) for key in fresh
-            }
-        return len(caught)
+        if not caught:
+            return contacts, 0
+        moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
+        fresh = self.contacts_of(bodies, np.ascontiguousarray(pairs[moved]))
+        keep = ~(np.isin(contacts["body_a"], caught) | np.isin(contacts["body_b"], caught))
+        return {key: np.concatenate([contacts[key][keep], fresh[key]]) for key in fresh}, len(
+            caught
+        )
 
-    def broad_phase(self, bodies, resting: np.ndarray) -> None:
-        """Update the pair cache if the fat boxes changed; keep the pairs worth testing.
+    def broad_phase(self, bodies, resting: np.ndarray) -> np.ndarray:
+        """Update the pair cache if the fat boxes changed; return the pairs worth testing.
 
-        Candidates are the fat pairs whose tight boxes overlap and that have a body not in
-        ``resting`` (n,) bool (static or asleep: a pair of two of them cannot produce a new
-        contact).
+        Candidates (p, 2) int64 are the fat pairs whose tight boxes overlap and that have a
+        body not in ``resting`` (n,) bool (static or asleep: a pair of two of them cannot
+        produce a new contact).
         """
         if self._fat_changed:
             lower, upper = self.fat[0], self.fat[1]
@@ -233,57 +275,104 @@ class CollisionPipeline:
             self._fat_changed = False
         if len(self.fat_pairs):
             self._tight_bounds(bodies, self.pair_members, self.tight)
-            self.candidate_pairs = overlapping_pairs(self.fat_pairs, self.tight, resting)
+            candidates = overlapping_pairs(self.fat_pairs, self.tight, resting)
         else:
-            self.candidate_pairs = _NO_PAIRS
-        self.stats["candidate_pairs"] = len(self.candidate_pairs)
-        if len(self.candidate_pairs) == 0 and len(self.contacts["depths"]):
-            self.contacts = empty_contacts()  # the narrow phase will not run this step
+            candidates = _NO_PAIRS
+        self.stats["candidate_pairs"] = len(candidates)
+        return candidates
 
     def _tight_bounds(self, bodies, members: np.ndarray, out: np.ndarray) -> None:
         """Tight boxes of the bodies ``members`` (m,) into ``out`` (2, n, 3)."""
         b = bodies
         tight_bounds(
             members, self.box_offset, self.box_half, b.full("size"), b.full("position"),
-            b.full("orientation"), self._start_position, self.fast, out,
+            b.full("orientation"), self._start_position, self._fast, out,
         )  # fmt: skip
 
-    def narrow_phase(self, bodies) -> None:
-        """Contacts of the candidate pairs, world frame, into ``contacts``."""
-        self.contacts = self.contacts_of(bodies, self.candidate_pairs)
+    def narrow_phase(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
+        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``);
+        the convex pairs' coherence cache is kept for the next step."""
+        return self._contacts(bodies, pairs, keep_cache=True)
+
+    def _convex_pairs(self, pairs: np.ndarray) -> np.ndarray:
+        """(p,) bool: the pairs of two convex bodies."""
+        hull = self.hull_of_body
+        return (hull[pairs[:, 0]] >= 0) & (hull[pairs[:, 1]] >= 0)
 
     def intersects(self, bodies, pairs: np.ndarray) -> bool:
         """Whether any of the body ``pairs`` (p, 2) intersects in the current state."""
+        state = (
+            bodies.full("position"),
+            bodies.full("orientation"),
+            bodies.full("center_of_mass_local"),
+        )
+        convex = self._convex_pairs(pairs)
+        # the contact kernel decides, so this answer and contacts_of agree; tunnelling and
+        # time-of-impact searches ask about a few pairs only
+        if convex.any() and len(
+            convex_contacts_for_pairs(
+                np.ascontiguousarray(pairs[convex]),
+                self.hull_of_body,
+                self.hulls.arrays(),
+                self.hulls.longest_loop,
+                *state,
+                *self.convex_cache,
+            )[4]
+        ):
+            return True
+        if convex.all():
+            return False
         return bool(
             any_intersection(
-                pairs,
+                np.ascontiguousarray(pairs[~convex]),
                 self.geometry_of_body,
                 self.geometry.arrays(),
-                bodies.full("position"),
-                bodies.full("orientation"),
-                bodies.full("center_of_mass_local"),
+                *state,
             )
         )
 
     def contacts_of(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
         """Contacts of the body ``pairs`` (p, 2) in the current state (see ``empty_contacts``)."""
-        body_a, body_b, points, normals, depths, faces, stats = contacts_for_pairs(
-            pairs,
-            self.geometry_of_body,
-            self.geometry.arrays(),
+        return self._contacts(bodies, pairs, keep_cache=False)
+
+    def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> dict[str, np.ndarray]:
+        """Contacts of ``pairs``: convex pairs by the convex kernel, the others by the
+        OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step.
+        A scene whose bodies are all convex (or none) makes one kernel call and nothing else."""
+        state = (
             bodies.full("position"),
             bodies.full("orientation"),
             bodies.full("center_of_mass_local"),
         )
+        if self._every_body_convex:
+            return self._convex_contacts(pairs, state, keep_cache)
+        if not self._any_body_convex:
+            return self._mesh_contacts(pairs, state)
+        convex = self._convex_pairs(pairs)
+        parts = [
+            self._mesh_contacts(np.ascontiguousarray(pairs[~convex]), state),
+            self._convex_contacts(np.ascontiguousarray(pairs[convex]), state, keep_cache),
+        ]
+        return {key: np.concatenate([part[key] for part in parts]) for key in _CONTACT_KEYS}
+
+    def _mesh_contacts(self, pairs, state) -> dict[str, np.ndarray]:
+        """Contacts of mesh pairs by the OBBTree path (no feature ids)."""
+        *found, stats = contacts_for_pairs(
+            pairs, self.geometry_of_body, self.geometry.arrays(), *state
+        )
         self.stats.update(
-            bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2]),
-            contacts=len(depths),
+            bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2])
+        )
+        contacts = dict(zip(_CONTACT_KEYS, found, strict=False))
+        contacts["features"] = np.full(len(found[4]), -1, np.int64)
+        return contacts
+
+    def _convex_contacts(self, pairs, state, keep_cache: bool) -> dict[str, np.ndarray]:
+        """Contacts of convex pairs by the convex kernel, with its coherence cache."""
+        *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
+            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
+            *self.convex_cache,
         )  # fmt: skip
-        return {
-            "body_a": body_a,
-            "body_b": body_b,
-            "points": points,
-            "normals": normals,
-            "depths": depths,
-            "faces": faces,
-        }
+        if keep_cache:
+            self.convex_cache = (cache_keys, cache_features, cache_axes)
+        return dict(zip(_CONTACT_KEYS, found, strict=True))

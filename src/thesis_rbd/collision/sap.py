@@ -39,16 +39,16 @@ _NO_KEYS = np.empty(0, dtype=np.int64)
 _INT64_MAX = int(np.iinfo(np.int64).max)
 
 # Price of a full rebuild in "insertion-sort swaps": one swap costs about as much as COST_SORT
-# endpoint-sort steps (m log2 m per axis) and COST_SWEEP overlap checks of the sweep
-# (measured at n = 10k: a rebuild took 54 ms, 2.0M swaps of an incoherent frame 49 ms). The
+# endpoint-sort steps (m log2 m per axis) and COST_SWEEP overlap checks of the sweep (the
+# ratio of a rebuild's time to an incoherent frame's swaps, timed at n = 10k). The
 # incremental frame is abandoned once its swaps exceed that price, so a frame that was
 # predicted coherent but is not wastes at most about one rebuild.
 _COST_SORT = 1.0
 _COST_SWEEP = 0.5
-# A frame predicted to need more than this times the budget skips the insertion sort.
-# Measured (bench_sap.py test_fallback_pricing, 10k boxes): with 4.0, frames with 1 % of the
-# boxes teleporting ran to the budget and then rebuilt (72 ms against 37 ms for a plain
-# re-sort); with 1.0 "auto" matched the better strategy at 0, 0.1, 1 and 10 % teleports.
+# A frame predicted to need more than this times the budget skips the insertion sort. A
+# margin above 1 lets frames with a few teleporting boxes run to the budget and rebuild
+# anyway, paying twice; at 1 "auto" picks the cheaper strategy across teleport fractions
+# (bench_sap.py test_fallback_pricing).
 _PREDICTION_MARGIN = 1.0
 _STRATEGIES = ("auto", "incremental", "full")
 # Pair keys pack two ids into 32 bits each.

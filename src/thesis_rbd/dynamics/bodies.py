@@ -21,7 +21,25 @@ from typing import ClassVar
 
 import numpy as np
 
+from thesis_rbd._jit import njit
+
 __all__ = ["BodyArrays"]
+
+# The fields that make up the state (x, q, P, L): what a step changes.
+STATE_FIELDS = ("position", "orientation", "linear_momentum", "angular_momentum")
+
+
+@njit
+def _copy_state(count, x, q, P, L, x_to, q_to, P_to, L_to):
+    """Copy the first ``count`` rows of the state arrays into the ``*_to`` arrays."""
+    for i in range(count):
+        for a in range(3):
+            x_to[i, a] = x[i, a]
+            P_to[i, a] = P[i, a]
+            L_to[i, a] = L[i, a]
+        for a in range(4):
+            q_to[i, a] = q[i, a]
+
 
 _INITIAL_CAPACITY = 8
 
@@ -56,7 +74,7 @@ class BodyArrays:
         further than this in one step may have passed through something (a 1 cm plate's
         bounding radius is 0.42 m, its thickness 0.01 m).
     restitution, friction : (n,) float64
-        Material coefficients, combined per contact by the rules of DESIGN.md.
+        Material coefficients, combined per contact by the rules of docs/design.md.
     static : (n,) bool
         True for immovable bodies.
     collidable : (n,) bool
@@ -90,12 +108,26 @@ class BodyArrays:
         }
         self.meshes: list = []
         self.names: list[str] = []
+        self._saved = (np.empty((0, 3)),)
 
     def __getattr__(self, name: str) -> np.ndarray:
         storage = self.__dict__.get("_storage")
         if storage is not None and name in storage:
             return storage[name][: self.count]
         raise AttributeError(name)
+
+    def save_state(self) -> None:
+        """Keep a copy of the state (x, q, P, L) that ``restore_state`` puts back."""
+        if self._saved[0].shape[0] != self.capacity:
+            state = tuple(self._storage[f] for f in STATE_FIELDS)
+            self._saved = tuple(np.empty_like(a) for a in state)
+            self._save_arguments = state + self._saved
+            self._restore_arguments = self._saved + state
+        _copy_state(self.count, *self._save_arguments)
+
+    def restore_state(self) -> None:
+        """Put back the state of the last ``save_state``."""
+        _copy_state(self.count, *self._restore_arguments)
 
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""

@@ -6,9 +6,9 @@ relative velocity at the contact, u = (v_a + w_a x r_a) - (v_b + w_b x r_b), is 
 three directions (n, t1, t2), so each contact has three impulse components
 lambda = (lambda_n, lambda_t1, lambda_t2). After the solve, with u- the velocity before:
 
-* non-penetration with Newton's restitution (thesis 7.1), for all contacts at once:
-  0 <= lambda_n  _|_  u_n+ + e u_n- >= 0   (e is dropped below ``bounce_threshold``, so
-  slow contacts come to rest instead of chattering);
+* non-penetration (thesis 7.1), for all contacts at once:
+  0 <= lambda_n  _|_  u_n+ + bias >= 0  (restitution is applied afterwards, as Poisson's
+  second phase, by the callers);
 * Coulomb friction with a polyhedral cone (Stewart and Trinkle 1996; Anitescu and Potra 1997):
   the tangential impulse lies in the regular polygon with ``sides`` vertices at radius
   mu lambda_n, and among those it is the one that removes the most kinetic energy (maximal
@@ -33,8 +33,8 @@ Arrays, for c contacts and n bodies, travel as two tuples:
         world frame. Static bodies have zero inverses and are never moved.
 
 and per contact bias (c,) and friction (c,). The normal condition is u_n+ + bias >= 0: a
-negative bias demands separation (restitution e u_n-, or a penetration to push out), a positive
-one allows that much approach (a resting contact sinking to its slop).
+negative bias demands separation (a penetration to push out), a positive one allows that much
+approach (a resting contact sinking to its slop).
 """
 
 from __future__ import annotations
@@ -45,12 +45,11 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.dynamics.lcp import lemke
+from thesis_rbd.dynamics.pgs import build_rows, friction_polygon, sweep_island
 
 __all__ = [
-    "apply_restitution",
     "contact_basis",
     "delassus_matrix",
-    "project_onto_polygon",
     "relative_velocity",
     "solve_exact",
     "solve_pgs",
@@ -136,151 +135,25 @@ def _apply_impulse(k, d, j, contacts, bodies):
         angular_velocity[b, i] -= j * tb[i]
 
 
-@njit(inline="always")
-def _effective_mass(k, d1, d2, contacts, bodies):
-    """K[d1, d2] = J_d1 M^-1 J_d2^T for contact k (directions of the same contact)."""
+@njit
+def solve_pgs(iterations, sides, contacts, bias, friction, bodies, impulse, tolerance):
+    """Projected Gauss-Seidel on one island given as tuples (``pgs.sweep_island``), in place.
+
+    ``contacts`` and ``bodies`` are the tuples of the module docstring, ``bias`` and
+    ``friction`` (c,); ``impulse`` (c, 3) is the warm start and is overwritten with the answer.
+    Returns whether the sweeps converged to the velocity ``tolerance`` (m/s).
+    """
     body_a, body_b, arm_a, arm_b, basis = contacts
-    inverse_mass, inverse_inertia = bodies[2], bodies[3]
-    a, b = body_a[k], body_b[k]
-    e1, e2 = basis[k, d1], basis[k, d2]
-    value = (inverse_mass[a] + inverse_mass[b]) * _dot(e1, e2)
-    ca1, ca2 = _cross(arm_a[k], e1), _cross(arm_a[k], e2)
-    cb1, cb2 = _cross(arm_b[k], e1), _cross(arm_b[k], e2)
-    value += _dot(ca1, _matvec(inverse_inertia[a], ca2))
-    value += _dot(cb1, _matvec(inverse_inertia[b], cb2))
-    return value
-
-
-@njit
-def project_onto_polygon(x1, x2, radius, sides):
-    """Nearest point to (x1, x2) in the regular polygon with vertices at angles 2 pi j / sides
-    and circumradius ``radius`` (the polyhedral friction cone's slice)."""
-    if radius <= 0.0:
-        return 0.0, 0.0
-    sector = 2.0 * math.pi / sides
-    angle = math.atan2(x2, x1)
-    if angle < 0.0:
-        angle += 2.0 * math.pi
-    j = min(int(angle / sector), sides - 1)
-    mid = (j + 0.5) * sector
-    inradius = radius * math.cos(0.5 * sector)
-    if x1 * math.cos(mid) + x2 * math.sin(mid) <= inradius:
-        return x1, x2
-    p1, p2 = radius * math.cos(j * sector), radius * math.sin(j * sector)
-    q1, q2 = radius * math.cos((j + 1) * sector), radius * math.sin((j + 1) * sector)
-    e1, e2 = q1 - p1, q2 - p2
-    s = ((x1 - p1) * e1 + (x2 - p2) * e2) / (e1 * e1 + e2 * e2)
-    s = min(max(s, 0.0), 1.0)
-    return p1 + s * e1, p2 + s * e2
-
-
-@njit
-def solve_pgs(iterations, sides, contacts, bias, friction, bodies, impulse, tolerance=1e-6):
-    """Projected Gauss-Seidel (sequential impulses) on the contact problem, in place.
-
-    Parameters
-    ----------
-    iterations : int
-        Largest number of sweeps over the contacts.
-    sides : int
-        Sides of the friction polygon.
-    contacts : tuple
-        (body_a, body_b, arm_a, arm_b, basis), see the module docstring.
-    bias : (c,) float64
-        Normal bias of each contact: the solve makes u_n+ + bias >= 0.
-    friction : (c,) float64
-        Friction coefficient of each contact.
-    bodies : tuple
-        (velocity, angular_velocity, inverse_mass, inverse_inertia); the velocities are
-        updated with every impulse applied.
-    impulse : (c, 3) float64
-        (lambda_n, lambda_t1, lambda_t2): the warm start, applied first, then the result.
-    tolerance : float
-        Sweeps stop early once no impulse changed by more than this fraction of the largest
-        normal impulse (a resting pile converges in a few sweeps from its warm start).
-
-    Returns
-    -------
-    change : float
-        Largest impulse change of the last sweep.
-    """
-    c = contacts[0].shape[0]
-    k_normal = np.empty(c)
-    step_tangent = np.empty(c)
-    for k in range(c):
-        k_normal[k] = _effective_mass(k, 0, 0, contacts, bodies)
-        k11 = _effective_mass(k, 1, 1, contacts, bodies)
-        k22 = _effective_mass(k, 2, 2, contacts, bodies)
-        k12 = _effective_mass(k, 1, 2, contacts, bodies)
-        # largest eigenvalue of the symmetric 2x2 block: the safe scalar step is its inverse
-        half_trace = 0.5 * (k11 + k22)
-        largest = half_trace + math.sqrt(max(0.25 * (k11 - k22) ** 2 + k12 * k12, 0.0))
-        step_tangent[k] = 1.0 / largest if largest > 0.0 else 0.0
-        for d in range(3):
-            if impulse[k, d] != 0.0:
-                _apply_impulse(k, d, impulse[k, d], contacts, bodies)
-
-    change = 0.0
-    for _ in range(iterations):
-        change = 0.0
-        largest = 0.0
-        for k in range(c):
-            if k_normal[k] <= 0.0:
-                continue
-            u_n = relative_velocity(k, 0, contacts, bodies)
-            new_n = max(impulse[k, 0] - (u_n + bias[k]) / k_normal[k], 0.0)
-            delta = new_n - impulse[k, 0]
-            if delta != 0.0:
-                _apply_impulse(k, 0, delta, contacts, bodies)
-                impulse[k, 0] = new_n
-                change = max(change, abs(delta))
-            if friction[k] <= 0.0:
-                continue
-            h = step_tangent[k]
-            t1, t2 = project_onto_polygon(
-                impulse[k, 1] - h * relative_velocity(k, 1, contacts, bodies),
-                impulse[k, 2] - h * relative_velocity(k, 2, contacts, bodies),
-                friction[k] * new_n,
-                sides,
-            )
-            d1, d2 = t1 - impulse[k, 1], t2 - impulse[k, 2]
-            if d1 != 0.0:
-                _apply_impulse(k, 1, d1, contacts, bodies)
-            if d2 != 0.0:
-                _apply_impulse(k, 2, d2, contacts, bodies)
-            impulse[k, 1], impulse[k, 2] = t1, t2
-            change = max(change, abs(d1), abs(d2))
-        for k in range(c):
-            largest = max(largest, impulse[k, 0])
-        if change <= tolerance * largest:
-            break  # converged: a further sweep would move no impulse by more than that
-    return change
-
-
-@njit
-def apply_restitution(contacts, bodies, impulse, restitution):
-    """Poisson's restitution phase: add e_k times each contact's compression impulse.
-
-    After the compression solve (bias 0: approach stopped), contact k receives a further
-    normal impulse e_k lambda_n,k. For one contact this equals Newton's law u+ = -e u-;
-    for simultaneous contacts on a spinning body it cannot create energy, which Newton's
-    law applied at every contact at once can (a ball bouncing on two points of its
-    polyhedral bottom gained 0.3 % per bounce that way).
-
-    Parameters
-    ----------
-    contacts, bodies : tuples as in ``solve_pgs``
-        The body velocities are updated.
-    impulse : (c, 3) float64
-        Compression impulses in; totals out.
-    restitution : (c,) float64
-        e of each contact (0 for contacts that do not bounce).
-    """
-    for k in range(impulse.shape[0]):
-        extra = restitution[k] * impulse[k, 0]
-        if extra > 0.0:
-            _apply_impulse(k, 0, extra, contacts, bodies)
-            impulse[k, 0] += extra
+    velocity, angular_velocity, inverse_mass, inverse_inertia = bodies
+    rows = build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inertia)
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    _, converged = sweep_island(
+        0, body_a.shape[0], iterations, np.full(body_a.shape[0], tolerance),
+        friction_polygon(sides), body_a, body_b,
+        basis, angular_a, angular_b, response_a, response_b, normal_step, tangent_step,
+        inverse_mass, bias, friction, velocity, angular_velocity, impulse,
+    )  # fmt: skip
+    return converged
 
 
 @njit
@@ -366,15 +239,37 @@ def _stewart_trinkle_lcp(A, u, bias, friction, sides):
 
 
 @njit
-def _lcp_residual(M, q, z):
+def _scaling(M, c, sides, friction):
+    """Diagonal scaling S that makes the contact LCP dimensionless: M' = S M S, q' = S q.
+
+    lambda and beta rows get 1 / sqrt(M_ii), so M'_ii = 1 whatever the masses (a 10 um cube's
+    M is 1e12 times a 1 kg cube's); each sliding-speed row s gets the inverse of its first beta
+    row's factor, so its couplings to lambda (mu) and to beta (1) stay O(1) too. Lemke's pivot
+    tolerance and the answer's check then mean the same at every scale.
+    """
+    n = M.shape[0]
+    S = np.ones(n)
+    for i in range(n):
+        if M[i, i] > 0.0:
+            S[i] = 1.0 / math.sqrt(M[i, i])
+    column = c
+    for k in range(c):
+        if friction[k] > 0.0:
+            S[column + sides] = 1.0 / S[column]
+            column += sides + 1
+    return S
+
+
+@njit
+def _lcp_residual(M, q, z, velocity_floor):
     """Largest violation of z >= 0, w = Mz + q >= 0 and z.w = 0, each relative to its scale.
 
-    w is measured against the largest of |q|, |Mz| and 1e-4 (an absolute floor: when nothing
-    approaches, q and Mz are round-off, 1e-13, and so is any violation); z against its own
-    largest entry.
+    w is measured against the largest of |q|, |Mz| and ``velocity_floor`` (when nothing
+    approaches, q and Mz are round-off, and so is any violation: the floor is the island's own
+    velocity scale); z against its own largest entry.
     """
     w = M @ z + q
-    velocity_scale = 1e-4
+    velocity_scale = velocity_floor
     impulse_scale = 1e-300
     for i in range(q.shape[0]):
         velocity_scale = max(velocity_scale, abs(q[i]), abs(w[i] - q[i]))
@@ -395,17 +290,21 @@ _PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
 
 @njit
-def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_iterations=200):
+def solve_exact(
+    sides, contacts, bias, friction, bodies, impulse, velocity_scale, pgs_fallback_iterations=200
+):
     """Solve the contact problem exactly (Lemke on the Stewart-Trinkle LCP), in place.
 
-    Same arguments as ``solve_pgs``; ``impulse`` is the warm start of the fallback only and is
-    overwritten with the answer. The pivoting answer is checked against the LCP conditions
-    and against the energy bound every exact answer obeys (``_dissipates``): if it misses
-    them by more than 1e-6 relative at every pivot tolerance tried (the path
-    ended on a ray with the artificial variable still positive, or round-off on a badly
-    degenerate island), the island is solved by ``pgs_fallback_iterations`` PGS sweeps
-    started from the best pivoting answer when that misses by less than 1e-2 (it is nearly
-    right, and PGS alone converges slowly on a heavy-on-light stack), else from ``impulse``.
+    Same arguments as ``solve_pgs``, and ``velocity_scale``, the speed below which velocity
+    errors of this island are round-off (the caller's slop per step, say); ``impulse`` is the
+    warm start of the fallback only and is overwritten with the answer. The LCP is scaled to
+    be dimensionless (``_scaling``). The pivoting answer is checked against the LCP
+    conditions and against the energy bound every exact answer obeys (``_dissipates``): if it
+    misses them by more than 1e-6 relative at every pivot tolerance tried (the path ended on a
+    ray with the artificial variable still positive, or round-off on a badly degenerate
+    island), the island is solved by ``pgs_fallback_iterations`` PGS sweeps started from the
+    best pivoting answer when that misses by less than 1e-2 (it is nearly right, and PGS alone
+    converges slowly on a heavy-on-light stack), else from ``impulse``.
 
     Returns
     -------
@@ -420,6 +319,14 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
         for d in range(3):
             u[3 * k + d] = relative_velocity(k, d, contacts, bodies)
     M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
+    S = _scaling(M, c, sides, friction)
+    for i in range(M.shape[0]):
+        q[i] *= S[i]
+        for j in range(M.shape[0]):
+            M[i, j] *= S[i] * S[j]
+    velocity_floor = 0.0
+    for k in range(c):
+        velocity_floor = max(velocity_floor, velocity_scale * S[k])
     # Coplanar contacts make M singular and the path degenerate; a pivot a millionth of its
     # column's largest entry is round-off, and pivoting on it wrecks the tableau. The default
     # tolerance rejects those; the others are retries for the rare path it blocks.
@@ -429,8 +336,8 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
     best, best_residual, best_status = np.zeros(3 * c), np.inf, 3
     for pivot_tolerance in _PIVOT_TOLERANCES:
         z, status, _ = lemke(M, q, 0, pivot_tolerance)
-        contact_impulse = G @ z
-        residual = _lcp_residual(M, q, z)
+        residual = _lcp_residual(M, q, z, velocity_floor)
+        contact_impulse = G @ (S * z)
         if not _dissipates(A, u, bias, contact_impulse):
             residual = max(residual, 1.0)  # an answer that adds energy is no answer
         if residual < best_residual:
@@ -442,7 +349,10 @@ def solve_exact(sides, contacts, bias, friction, bodies, impulse, pgs_fallback_i
         return 0
     if best_residual <= 1e-2:
         _to_contact_impulses(best, impulse)
-    solve_pgs(pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse)
+    solve_pgs(
+        pgs_fallback_iterations, sides, contacts, bias, friction, bodies, impulse,
+        1e-3 * velocity_scale,
+    )  # fmt: skip
     return 3 if best_status == 0 else best_status  # 3: the path ended, its answer was off
 
 
@@ -455,14 +365,18 @@ def _dissipates(A, u, bias, contact_impulse):
     -sum lambda_n bias minus what sliding friction dissipates: so it never exceeds
     -sum lambda_n bias. A degenerate path can end on a basis whose impulses are huge and
     cancel in Mz (the tableau's checks pass to 1e-8 relative) yet spin a light box at
-    1 rad/s between heavy ones; this is the check that catches it.
+    1 rad/s between heavy ones; this is the check that catches it. The allowance is relative
+    to the energies involved, so it means the same for a 10 um part and a 100 m block.
     """
     c = bias.shape[0]
     quadratic = contact_impulse @ (A @ contact_impulse)
-    gain = contact_impulse @ u + 0.5 * quadratic
+    work = contact_impulse @ u
+    gain = work + 0.5 * quadratic
+    biased = 0.0
     for k in range(c):
         gain += contact_impulse[3 * k] * bias[k]
-    return gain <= 1e-6 * quadratic + 1e-15
+        biased += abs(contact_impulse[3 * k] * bias[k])
+    return gain <= 1e-6 * quadratic + 1e-12 * (abs(work) + biased)
 
 
 @njit

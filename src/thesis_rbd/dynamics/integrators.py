@@ -25,7 +25,7 @@ import math
 from thesis_rbd._jit import njit
 from thesis_rbd.spatial.quaternion import conjugate, derivative, normalize, rotate
 
-__all__ = ["INTEGRATORS", "integrate_bodies"]
+__all__ = ["INTEGRATORS", "body_forces", "integrate_bodies"]
 
 INTEGRATORS = {"euler": 0, "symplectic_euler": 1, "midpoint": 2, "rk4": 3}
 
@@ -59,6 +59,38 @@ def _derivative(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm
         ty += r[2] * f[0] - r[0] * f[2]
         tz += r[0] * f[1] - r[1] * f[0]
     return v, derivative(q, w), F, (tx, ty, tz)
+
+
+@njit
+def _turn(q, h, w):
+    """q turned by the rotation vector h w (world frame): exp(h w / 2) q, as a 4-tuple."""
+    angle = h * math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    if angle == 0.0:
+        return q
+    s = math.sin(0.5 * angle) / angle * h
+    c = math.cos(0.5 * angle)
+    rx, ry, rz = w[0] * s, w[1] * s, w[2] * s
+    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
+    return (
+        c * qx + rx * qw + ry * qz - rz * qy,
+        c * qy + ry * qw + rz * qx - rx * qz,
+        c * qz + rz * qw + rx * qy - ry * qx,
+        c * qw - rx * qx - ry * qy - rz * qz,
+    )
+
+
+@njit
+def body_forces(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm, pf_force):
+    """(F, tau) 3-tuples acting on body i in the state given by the rows q (4,), P, L (3,).
+
+    The same force model as the integrators (external force, drag, point-force torques), for
+    the contact stage, which needs the velocities the forces alone would give.
+    """
+    _, _, F, T = _derivative(
+        i, (q[0], q[1], q[2], q[3]), (P[0], P[1], P[2]), (L[0], L[1], L[2]), inv_mass,
+        inv_inertia, force, drag, pf_start, pf_arm, pf_force,
+    )  # fmt: skip
+    return F, T
 
 
 @njit(inline="always")
@@ -98,6 +130,7 @@ def integrate_bodies(
     dt,
     count,
     frozen,
+    solved,
     position,
     orientation,
     linear_momentum,
@@ -125,6 +158,10 @@ def integrate_bodies(
         Number of live bodies n (arrays may be longer).
     frozen : (>= n,) bool
         Bodies that do not move this step (static or asleep).
+    solved : (>= n,) bool
+        Bodies whose end-of-step momenta the contact stage already set (forces and contact
+        impulses included): they move with those velocities, x += dt v and q turned by
+        w dt, which is the position half of symplectic Euler; the others follow ``method``.
     position, linear_momentum, angular_momentum : (>= n, 3) float64
         x, P, L in the world frame; updated in place.
     orientation : (>= n, 4) float64
@@ -142,8 +179,15 @@ def integrate_bodies(
         ``start_orientation`` ((>= n, 3), (>= n, 4) float64): the collision stages sweep fast
         bodies from there. Saved here because x and q pass through registers anyway, so it
         costs no second pass over the bodies.
+
+    Returns
+    -------
+    bad_body : int
+        The first body whose new state is not finite, or -1 (checked here, where the state
+        is in registers, so a step that goes wrong costs nothing to detect).
     """
     h = dt
+    bad = -1
     # short local names keep the stage lines readable
     Fx, pfs, pfa, pff = external_force, pf_start, pf_arm, pf_force
     for i in range(count):
@@ -161,7 +205,10 @@ def integrate_bodies(
             for k in range(4):
                 start_orientation[i, k] = q0[k]
 
-        if method == 0:  # explicit Euler
+        if solved[i]:  # momenta are final: move with them
+            v = (P0[0] * im, P0[1] * im, P0[2] * im)
+            x, q, P, L = _add3(x0, h, v), _turn(q0, h, _angular_velocity(q0, L0, Ii)), P0, L0
+        elif method == 0:  # explicit Euler
             v1, dq1, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
             x, q, P, L = _add3(x0, h, v1), _add4(q0, h, dq1), _add3(P0, h, F1), _add3(L0, h, T1)
         elif method == 1:  # symplectic Euler: momenta first, then configuration
@@ -195,3 +242,9 @@ def integrate_bodies(
             angular_momentum[i, k] = L[k]
         for k in range(4):
             orientation[i, k] = q[k]
+        if bad < 0 and not (
+            math.isfinite(x[0] + x[1] + x[2] + q[0] + q[1] + q[2] + q[3])
+            and math.isfinite(P[0] + P[1] + P[2] + L[0] + L[1] + L[2])
+        ):
+            bad = i
+    return bad

@@ -1,7 +1,8 @@
 """Sleeping: islands at rest stop being simulated until something touches them.
 
-A dynamic body is *still* while its speed stays below ``linear_tolerance`` and its angular
-speed below ``angular_tolerance``; an island (bodies joined by this step's contacts, static
+A dynamic body is *still* while its speed stays below ``linear_tolerance`` bounding radii per
+second (a tolerance relative to its size: a 10 um part and a 100 m block sleep alike) and its
+angular speed below ``angular_tolerance``; an island (bodies joined by this step's contacts, static
 bodies excluded) falls asleep once every body in it has been still for ``time_to_sleep``.
 Asleep bodies have zero velocity and are frozen: the integrator, the narrow phase between
 two resting bodies and the contact solver all skip them, so a settled scene costs almost
@@ -38,7 +39,7 @@ class SleepSettings:
     enabled : bool
         False keeps every body awake.
     linear_tolerance : float
-        Speed (m/s) below which a body counts as still.
+        Speed, in the body's bounding radii per second, below which it counts as still.
     angular_tolerance : float
         Angular speed (rad/s) below which a body counts as still.
     time_to_sleep : float
@@ -59,7 +60,7 @@ class SleepSettings:
 
 @njit
 def _still_time(
-    count, frozen, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+    count, frozen, static, radius, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, still, dt, linear_tolerance, angular_tolerance,
 ):  # fmt: skip
     """Advance each awake dynamic body's still-time; reset it for a moving body.
@@ -68,7 +69,6 @@ def _still_time(
     rotation keeps lengths), so nothing per body is allocated. Returns the largest
     still-time.
     """
-    lin2 = linear_tolerance * linear_tolerance
     ang2 = angular_tolerance * angular_tolerance
     longest = 0.0
     for i in range(count):
@@ -85,7 +85,7 @@ def _still_time(
         spin2 = 0.0
         for a in range(3):
             spin2 += (Ii[a, 0] * Lb[0] + Ii[a, 1] * Lb[1] + Ii[a, 2] * Lb[2]) ** 2
-        if speed2 <= lin2 and spin2 <= ang2:
+        if speed2 <= (linear_tolerance * radius[i]) ** 2 and spin2 <= ang2:
             still[i] += dt
         else:
             still[i] = 0.0
@@ -133,8 +133,8 @@ class SleepState:
         Parameters
         ----------
         slowest_speed2 : float
-            Smallest squared speed (m^2/s^2) of an awake dynamic body, measured after the
-            integration.
+            Smallest (speed / bounding radius)^2 (1/s^2) of an awake dynamic body, measured
+            after the integration.
         touching : bool
             Whether there are contacts this step (the contact response changes velocities
             after they were measured, and contacts join islands).
@@ -191,7 +191,8 @@ class SleepState:
         n = bodies.count
         static = bodies.static
         longest = _still_time(
-            n, self.asleep, static, bodies.full("orientation"), bodies.full("linear_momentum"),
+            n, self.asleep, static, bodies.full("size"), bodies.full("orientation"),
+            bodies.full("linear_momentum"),
             bodies.full("angular_momentum"), bodies.full("inverse_mass"),
             bodies.full("inverse_inertia_body"), self.still, dt, s.linear_tolerance,
             s.angular_tolerance,

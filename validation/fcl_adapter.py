@@ -1,4 +1,6 @@
-"""Adapter to python-fcl, the reference the narrow phase is validated and timed against.
+"""Adapter to python-fcl, the peer the narrow phase is validated and timed against.
+
+Not library API: it lives with the cross-checks that use it.
 
 python-fcl is an optional (test) dependency, imported lazily with a clear error. fcl's
 quaternions are (w, x, y, z); the package's are (x, y, z, w): the reorder lives here only.

@@ -1,0 +1,510 @@
+"""Contacts of convex body pairs: every candidate pair of a step in one kernel call.
+
+Per pair, in A's hull frame (B placed there by the relative transform): the axis of least
+penetration, from the separating-axis test (``convex_sat.py``) for hulls with few edges or
+GJK and EPA (``convex_gjk.py``) for hulls with many; then the manifold (``convex_manifold.py``):
+clipped incident face and four corners for a face axis, one point for an edge pair (unless
+the edge axis lies within 0.01 rad of a face beside the edges: a face hanging over another's
+edge, nearly flat, then gets that face's manifold at the edge axis' exact normal and depth).
+Contact points lie midway between the two surfaces; every contact of a pair reports the
+pair's penetration depth, as the mesh path's contacts report their region's.
+
+Frame-to-frame coherence: a cache keyed by body pair remembers the axis that separated the
+pair or gave its contact last time, as features (a face of A, a face of B, an edge pair) and
+as a direction; the separating-axis test tries the feature first and GJK starts from the
+direction, and either usually separates again at once. The caller owns the cache and passes
+it in; the kernel returns the new one (one row per pair it was given).
+
+Each contact carries a feature id (int64) that stays the same while its features do: the
+kind of contact, the reference and incident faces (or the two edges) and the corner's clip
+tag (``convex_manifold.TAG_BITS``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_query, support_vertex
+from thesis_rbd.collision.convex_manifold import (
+    clip_incident_face,
+    edge_contact_point,
+    four_corners,
+)
+from thesis_rbd.collision.convex_sat import EDGES, FACE_A, FACE_B, place_hull, sat_query
+from thesis_rbd.spatial.quaternion import to_matrix_into
+
+__all__ = [
+    "CACHE_AXIS",
+    "SAT_EDGE_PAIRS",
+    "convex_contacts_for_pairs",
+    "empty_cache",
+    "feature_id",
+    "pair_key",
+]
+
+# Pairs whose edge counts multiply to at most this go through the separating-axis test,
+# larger ones through GJK and EPA: the SAT's cost grows with the product, GJK/EPA's hardly;
+# resting on a box, the SAT was the faster at 576 (a 16-sided cylinder) and GJK/EPA at 1152.
+SAT_EDGE_PAIRS = 600
+# Separations within this fraction of the hulls' sizes are ties (see ``sat_query``): a face
+# beats an edge pair that is deeper by less, which keeps whole-face manifolds for nearly
+# parallel faces at a depth error below 1e-9 of the size.
+_TIE = 1e-10
+# Incident faces are searched over all faces of hulls with at most this many
+_SCAN_FACES = 64
+# An edge axis closer than this (rad) to the normal of a face beside the edges gets that
+# face's clipped manifold instead of one point
+_FLAT_EDGE_ANGLE = 1e-2
+# Contact corners whose depths differ by less than this fraction of the hulls' sizes are
+# equally deep when four are kept: a face resting on a face, tilted by round-off or by a
+# few micro-radians, keeps its widest four corners whichever way it tilts, instead of
+# flipping between sets as the tilt does. (Every contact reports the pair's depth.)
+_FLAT = 1e-5
+# Incident faces this close to parallel with the reference face (cosine) are clipped at the
+# reference plane too; tilted ones keep only their corners below it
+_PARALLEL_COSINE = math.cos(1e-2)
+# Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
+_DEEPEST_VERTEX_TAG = (1 << 21) - 1
+_FACE_BITS = 20
+_FACE_MASK = (1 << _FACE_BITS) - 1
+
+
+def empty_cache() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A coherence cache with no pair: keys (0,) int64, features (0, 3) int64, axes (0, 3)."""
+    return np.zeros(0, np.int64), np.zeros((0, 3), np.int64), np.zeros((0, 3))
+
+
+@njit
+def pair_key(i, j):
+    """Cache key of body pair (i, j)."""
+    return (np.int64(i) << 32) | np.int64(j)
+
+
+@njit
+def feature_id(kind, first, second, tag):
+    """Feature id of a contact: kind (2 bits), two face or edge indices (20 bits each), tag."""
+    return (
+        (np.int64(kind) << 61)
+        | ((np.int64(first) & _FACE_MASK) << 41)
+        | ((np.int64(second) & _FACE_MASK) << 21)
+        | np.int64(tag)
+    )
+
+
+@njit
+def _mesh_frame(i, position, orientation, center_of_mass_local, R, t):
+    """Body i's mesh-to-world rotation R (3, 3) and translation t (3,)."""
+    to_matrix_into(orientation[i], R)
+    for a in range(3):
+        t[a] = position[i, a] - (
+            R[a, 0] * center_of_mass_local[i, 0]
+            + R[a, 1] * center_of_mass_local[i, 1]
+            + R[a, 2] * center_of_mass_local[i, 2]
+        )
+
+
+@njit
+def _relative_frame(Ra, ta, Rb, tb, R, t):
+    """B's frame in A's: R = Ra^T Rb, t = Ra^T (tb - ta)."""
+    for a in range(3):
+        for b in range(3):
+            R[a, b] = Ra[0, a] * Rb[0, b] + Ra[1, a] * Rb[1, b] + Ra[2, a] * Rb[2, b]
+        t[a] = Ra[0, a] * (tb[0] - ta[0]) + Ra[1, a] * (tb[1] - ta[1]) + Ra[2, a] * (tb[2] - ta[2])
+
+
+@njit
+def _incident_face(H, h, mx, my, mz, start_vertex):
+    """Face of hull h whose outward normal is most nearly along (mx, my, mz) (hull frame):
+    a scan over all faces of a small hull, the faces around the support vertex otherwise."""
+    (vertex_start, vertices, neighbor_start, neighbors, _, vertex_face_start, vertex_faces,
+     face_start, planes, _, _, _, _, _, _, _, _) = H  # fmt: skip
+    f0, f1 = face_start[h], face_start[h + 1]
+    best, best_face = -np.inf, 0
+    if f1 - f0 <= _SCAN_FACES:
+        for f in range(f0, f1):
+            s = planes[f, 0] * mx + planes[f, 1] * my + planes[f, 2] * mz
+            if s > best:
+                best, best_face = s, f - f0
+        return best_face
+    v0 = vertex_start[h]
+    v = support_vertex(
+        vertices[v0 : vertex_start[h + 1]], neighbor_start[v0 : vertex_start[h + 1] + 1],
+        neighbors, mx, my, mz, start_vertex,
+    )  # fmt: skip
+    for k in range(vertex_face_start[v0 + v], vertex_face_start[v0 + v + 1]):
+        f = f0 + vertex_faces[k]
+        s = planes[f, 0] * mx + planes[f, 1] * my + planes[f, 2] * mz
+        if s > best:
+            best, best_face = s, vertex_faces[k]
+    return best_face
+
+
+@njit
+def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, out):
+    """Hull h's vertex farthest against (nx, ny, nz) (A's frame) into out[0] (A's frame);
+    h is B's hull when ``kind`` is FACE_A (mapped by R, t), A's otherwise."""
+    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    v0, v1 = vertex_start[h], vertex_start[h + 1]
+    if kind == FACE_A:
+        mx = -(R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz)
+        my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
+        mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
+    else:
+        mx, my, mz = -nx, -ny, -nz
+    v = v0 + support_vertex(vertices[v0:v1], neighbor_start[v0 : v1 + 1], neighbors,
+                            mx, my, mz, 0)  # fmt: skip
+    x, y, z = vertices[v, 0], vertices[v, 1], vertices[v, 2]
+    if kind == FACE_A:
+        for a in range(3):
+            out[0, a] = R[a, 0] * x + R[a, 1] * y + R[a, 2] * z + t[a]
+    else:
+        out[0, 0], out[0, 1], out[0, 2] = x, y, z
+
+
+@njit
+def _gather_loop(H, h, face, R, t, out):
+    """Face ``face`` of hull h's corners mapped by x -> R x + t into ``out``; their count."""
+    vertex_start, vertices, face_start, loop_start, loops = H[0], H[1], H[7], H[9], H[10]
+    v0 = vertex_start[h]
+    f = face_start[h] + face
+    count = loop_start[f + 1] - loop_start[f]
+    for k in range(count):
+        v = v0 + loops[loop_start[f] + k]
+        x, y, z = vertices[v, 0], vertices[v, 1], vertices[v, 2]
+        for a in range(3):
+            out[k, a] = R[a, 0] * x + R[a, 1] * y + R[a, 2] * z + t[a]
+    return count
+
+
+@njit
+def _face_manifold(
+    H, ha, hb, kind, reference_face, R, t, tolerance, flat,
+    reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
+    Ri, ti, out_points, out_depths, out_features, c,
+):  # fmt: skip
+    """Contacts of a face axis into the outputs from row c (world frame); their count.
+
+    ``kind`` is FACE_A (reference face on A) or FACE_B; (R, t) maps B into A's frame and
+    (Ri, ti) A into the world. Corners less deep than the deepest by at most ``flat`` are
+    as deep for the choice of four (``four_corners``).
+    """
+    planes, face_start = H[8], H[7]
+    eye = np.eye(3)
+    zero = np.zeros(3)
+    if kind == FACE_A:
+        inc_hull = hb
+        f = face_start[ha] + reference_face
+        nx, ny, nz, d = planes[f, 0], planes[f, 1], planes[f, 2], planes[f, 3]
+        # the incident face is B's most opposed to n: search along -R^T n in B's frame
+        mx = -(R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz)
+        my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
+        mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
+        incident_face = _incident_face(H, hb, mx, my, mz, 0)
+        k = _gather_loop(H, ha, reference_face, eye, zero, reference)
+        m = _gather_loop(H, hb, incident_face, R, t, incident)
+    else:
+        inc_hull = ha
+        f = face_start[hb] + reference_face
+        bx, by, bz = planes[f, 0], planes[f, 1], planes[f, 2]
+        nx = R[0, 0] * bx + R[0, 1] * by + R[0, 2] * bz
+        ny = R[1, 0] * bx + R[1, 1] * by + R[1, 2] * bz
+        nz = R[2, 0] * bx + R[2, 1] * by + R[2, 2] * bz
+        d = planes[f, 3] + nx * t[0] + ny * t[1] + nz * t[2]
+        incident_face = _incident_face(H, ha, -nx, -ny, -nz, 0)
+        k = _gather_loop(H, hb, reference_face, R, t, reference)
+        m = _gather_loop(H, ha, incident_face, eye, zero, incident)
+    # the incident face's normal (A's frame) against the reference normal
+    g = face_start[inc_hull] + incident_face
+    mx, my, mz = planes[g, 0], planes[g, 1], planes[g, 2]
+    if kind == FACE_A:
+        mx, my, mz = (
+            R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz,
+            R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz,
+            R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz,
+        )
+    parallel = -(mx * nx + my * ny + mz * nz) >= _PARALLEL_COSINE
+    count = clip_incident_face(
+        reference, k, nx, ny, nz, d, incident, m, parallel, tolerance, points, tags, spare,
+        spare_tags, labels, spare_labels, depths,
+    )  # fmt: skip
+    if count == 0:
+        # no corner of the incident face below the reference plane: the incident hull's
+        # deepest vertex (its support against the reference normal) is the contact
+        count = 1
+        tags[0] = _DEEPEST_VERTEX_TAG
+        _deepest_vertex(H, inc_hull, kind, R, t, nx, ny, nz, points)
+    # drop corners that repeat their predecessor (a vertex on a clip plane)
+    kept = 0
+    for q in range(count):
+        if kept > 0:
+            gap = (
+                abs(points[q, 0] - points[kept - 1, 0])
+                + abs(points[q, 1] - points[kept - 1, 1])
+                + abs(points[q, 2] - points[kept - 1, 2])
+            )
+            if gap <= tolerance:
+                continue
+        points[kept] = points[q]
+        tags[kept] = tags[q]
+        kept += 1
+    while kept > 1 and (
+        abs(points[kept - 1, 0] - points[0, 0])
+        + abs(points[kept - 1, 1] - points[0, 1])
+        + abs(points[kept - 1, 2] - points[0, 2])
+        <= tolerance
+    ):
+        kept -= 1
+    for q in range(kept):
+        depths[q] = max(d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2]), 0.0)
+    n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
+    for r in range(n_keep):
+        q = keep[r]
+        half = 0.5 * depths[q]
+        px = points[q, 0] + half * nx
+        py = points[q, 1] + half * ny
+        pz = points[q, 2] + half * nz
+        for a in range(3):
+            out_points[c + r, a] = Ri[a, 0] * px + Ri[a, 1] * py + Ri[a, 2] * pz + ti[a]
+        out_depths[c + r] = depths[q]
+        out_features[c + r] = feature_id(kind, reference_face, incident_face, tags[q])
+    return n_keep, nx, ny, nz
+
+
+@njit
+def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, scratch):
+    """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``.
+
+    Pairs of few edges go through the separating-axis test, testing the cached feature
+    first; others through GJK and EPA, starting from the cached axis.
+    """
+    (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
+     edge_faces, edge_arcs, centroids, sizes) = H  # fmt: skip
+    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch
+    tie = _TIE * (sizes[ha] + sizes[hb])
+    ea0, ea1 = edge_start[ha], edge_start[ha + 1]
+    eb0, eb1 = edge_start[hb], edge_start[hb + 1]
+    if (ea1 - ea0) * (eb1 - eb0) > SAT_EDGE_PAIRS:
+        return gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, epa)
+    vb0, vb1 = vertex_start[hb], vertex_start[hb + 1]
+    fb0, fb1 = face_start[hb], face_start[hb + 1]
+    place_hull(vertices[vb0:vb1], planes[fb0:fb1], edge_arcs[eb0:eb1], R, t,
+               placed_vertices, placed_planes, placed_arcs)  # fmt: skip
+    return sat_query(
+        vertices[vertex_start[ha] : vertex_start[ha + 1]],
+        planes[face_start[ha] : face_start[ha + 1]],
+        edges[ea0:ea1], edge_faces[ea0:ea1], edge_arcs[ea0:ea1], centroids[ha],
+        placed_vertices[: vb1 - vb0], placed_planes[: fb1 - fb0],
+        edges[eb0:eb1], edge_faces[eb0:eb1], placed_arcs[: eb1 - eb0],
+        cached_kind, cached_i, cached_j, tie, signs_a, signs_b,
+    )  # fmt: skip
+
+
+@njit
+def _query_scratch(H):
+    """Scratch arrays of ``_pair_query``, sized for the hull set, reused over pairs."""
+    vertex_start, face_start, edge_start = H[0], H[7], H[11]
+    most_v = most_f = most_e = 1
+    for h in range(vertex_start.shape[0] - 1):
+        most_v = max(most_v, vertex_start[h + 1] - vertex_start[h])
+        most_f = max(most_f, face_start[h + 1] - face_start[h])
+        most_e = max(most_e, edge_start[h + 1] - edge_start[h])
+    # a pair of the separating-axis test has at most SAT_EDGE_PAIRS / 6 edges on each side
+    # (a hull has at least 6), and no more faces than edges
+    side = SAT_EDGE_PAIRS // 6
+    return (
+        np.empty((most_v, 3)),
+        np.empty((most_f, 4)),
+        np.empty((most_e, 3)),
+        np.empty((min(most_f, side), min(most_e, side))),
+        np.empty((min(most_e, side), min(most_f, side))),
+        epa_scratch(),
+    )
+
+
+@njit
+def convex_contacts_for_pairs(
+    pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+    center_of_mass_local, cache_keys, cache_features, cache_axes,
+):  # fmt: skip
+    """Contacts of candidate pairs of convex bodies, world frame, in one call.
+
+    Parameters
+    ----------
+    pairs : (p, 2) int64
+        Candidate body pairs [i, j]; both bodies convex.
+    hull_of_body : (n,) int64
+        Hull index of each body (``HullSet.hull_of``).
+    hull_arrays : tuple
+        ``HullSet.arrays()``.
+    longest_loop : int
+        ``HullSet.longest_loop``: most corners of any face.
+    position, orientation, center_of_mass_local : (n, 3), (n, 4), (n, 3) float64
+        Body state: x_world = R(orientation) (x_mesh - center_of_mass_local) + position.
+    cache_keys : (k,) int64, sorted
+        ``pair_key(i, j)`` of each cached pair.
+    cache_features : (k, 3) int64
+        [kind, i, j] of the axis that separated the pair or gave its contact last time:
+        ``FACE_A`` face i, ``FACE_B`` face i, ``EDGES`` edge i of A and j of B,
+        ``CACHE_AXIS`` a direction only, 0 nothing.
+    cache_axes : (k, 3) float64
+        That axis, from A towards B, in A's mesh frame.
+
+    Returns
+    -------
+    body_a, body_b : (c,) int64
+        The pair of each contact (a = i, b = j).
+    points, normals : (c, 3) float64
+        World contact points (midway between the two surfaces) and unit normals from b
+        towards a.
+    depths : (c,) float64
+        Penetration depth >= 0 of the pair (the same for all its contacts, as the mesh
+        path's contacts carry their region's depth).
+    faces : (c, 2) int64
+        -1: hull faces are not mesh triangles.
+    features : (c,) int64
+        Feature ids (``feature_id``).
+    cache_keys, cache_features, cache_axes : (p,), (p, 3), (p, 3)
+        The new cache: a row per pair, sorted by key.
+    """
+    H = hull_arrays
+    sizes = H[16]
+    p = pairs.shape[0]
+    scratch = _query_scratch(H)
+    corners = 2 * longest_loop + 2
+    reference = np.empty((longest_loop, 3))
+    incident = np.empty((longest_loop, 3))
+    points = np.empty((corners, 3))
+    spare = np.empty((corners, 3))
+    tags = np.empty(corners, np.int64)
+    spare_tags = np.empty(corners, np.int64)
+    labels = np.empty(corners, np.int64)
+    spare_labels = np.empty(corners, np.int64)
+    depths = np.empty(corners)
+    keep = np.empty(4, np.int64)
+
+    body_a = np.empty(4 * p, np.int64)
+    body_b = np.empty(4 * p, np.int64)
+    out_points = np.empty((4 * p, 3))
+    out_normals = np.empty((4 * p, 3))
+    out_depths = np.empty(4 * p)
+    out_features = np.empty(4 * p, np.int64)
+    new_keys = np.empty(p, np.int64)
+    new_features = np.zeros((p, 3), np.int64)
+    new_axes = np.zeros((p, 3))
+
+    Ra, ta = np.empty((3, 3)), np.empty(3)
+    Rb, tb = np.empty((3, 3)), np.empty(3)
+    R, t = np.empty((3, 3)), np.empty(3)
+    c = 0
+    for q in range(p):
+        i, j = pairs[q, 0], pairs[q, 1]
+        ha, hb = hull_of_body[i], hull_of_body[j]
+        key = pair_key(i, j)
+        new_keys[q] = key
+        cached_kind, cached_i, cached_j = 0, 0, 0
+        ax, ay, az = 0.0, 0.0, 0.0
+        slot = np.searchsorted(cache_keys, key)
+        if slot < cache_keys.shape[0] and cache_keys[slot] == key:
+            cached_kind = cache_features[slot, 0]
+            cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
+            ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
+        _mesh_frame(i, position, orientation, center_of_mass_local, Ra, ta)
+        _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
+        _relative_frame(Ra, ta, Rb, tb, R, t)
+        kind, fi, fj, separation, ux, uy, uz = _pair_query(
+            H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, scratch
+        )
+        new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
+        new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
+        if separation > 0.0:
+            continue
+        tolerance = _TIE * (sizes[ha] + sizes[hb])
+        flat = _FLAT * (sizes[ha] + sizes[hb])
+        count = 0
+        if kind == EDGES:
+            # an edge axis within a small angle of a face beside the edges (a face hanging
+            # over another's edge, nearly flat): the faces' clipped manifold, at the axis'
+            # exact normal and depth
+            face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
+            if face_kind:
+                count, _, _, _ = _face_manifold(
+                    H, ha, hb, face_kind, face, R, t, tolerance, flat, reference, incident, points,
+                    tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta,
+                    out_points, out_depths, out_features, c,
+                )  # fmt: skip
+            if count == 0:
+                count = 1
+                _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
+                out_depths[c] = -separation
+                out_features[c] = feature_id(EDGES, fi, fj, 0)
+            # the normal runs from B towards A: against the axis
+            nx, ny, nz = -ux, -uy, -uz
+        else:
+            count, nx, ny, nz = _face_manifold(
+                H, ha, hb, kind, fi, R, t, tolerance, flat, reference, incident, points, tags,
+                spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
+                out_depths, out_features, c,
+            )  # fmt: skip
+            # against A's outward face normal, along B's
+            if kind == FACE_A:
+                nx, ny, nz = -nx, -ny, -nz
+        wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
+        wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
+        wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
+        # every contact of the pair carries the pair's penetration depth, as the mesh path's
+        # contacts carry their region's: a resting face whose corners straddle the slop by
+        # round-off tilt is then seated or lifted as a whole, not rocked corner by corner
+        for r in range(c, c + count):
+            body_a[r], body_b[r] = i, j
+            out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz
+            out_depths[r] = -separation
+        c += count
+
+    order = np.argsort(new_keys)
+    return (
+        body_a[:c].copy(), body_b[:c].copy(), out_points[:c].copy(), out_normals[:c].copy(),
+        out_depths[:c].copy(), np.full((c, 2), -1, np.int64), out_features[:c].copy(),
+        new_keys[order], new_features[order], new_axes[order],
+    )  # fmt: skip
+
+
+@njit
+def _face_beside_edges(H, ha, hb, edge_a, edge_b, R, ux, uy, uz):
+    """(kind, face) of the face beside edge_a of A or edge_b of B whose outward normal is
+    within ``_FLAT_EDGE_ANGLE`` of the edge axis u (A towards B; B's faces face -u); kind 0
+    if none is."""
+    planes, face_start, edge_start, edge_faces = H[8], H[7], H[11], H[13]
+    best, kind, face = math.cos(_FLAT_EDGE_ANGLE), 0, 0
+    for k in range(2):
+        f = edge_faces[edge_start[ha] + edge_a, k]
+        row = face_start[ha] + f
+        s = planes[row, 0] * ux + planes[row, 1] * uy + planes[row, 2] * uz
+        if s > best:
+            best, kind, face = s, FACE_A, f
+        g = edge_faces[edge_start[hb] + edge_b, k]
+        row = face_start[hb] + g
+        nx = R[0, 0] * planes[row, 0] + R[0, 1] * planes[row, 1] + R[0, 2] * planes[row, 2]
+        ny = R[1, 0] * planes[row, 0] + R[1, 1] * planes[row, 1] + R[1, 2] * planes[row, 2]
+        nz = R[2, 0] * planes[row, 0] + R[2, 1] * planes[row, 1] + R[2, 2] * planes[row, 2]
+        s = -(nx * ux + ny * uy + nz * uz)
+        if s > best:
+            best, kind, face = s, FACE_B, g
+    return kind, face
+
+
+@njit
+def _edge_contact(H, ha, hb, edge_a, edge_b, R, t, Ri, ti, out_points, c):
+    """The one contact of an edge pair, world frame, into ``out_points[c]``."""
+    vertex_start, vertices, edge_start, edges = H[0], H[1], H[11], H[12]
+    a0 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 0]
+    a1 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 1]
+    b0 = vertex_start[hb] + edges[edge_start[hb] + edge_b, 0]
+    b1 = vertex_start[hb] + edges[edge_start[hb] + edge_b, 1]
+    pb = R @ vertices[b0] + t
+    qb = R @ vertices[b1] + t
+    x, y, z = edge_contact_point(vertices[a0], vertices[a1], pb, qb)
+    for a in range(3):
+        out_points[c, a] = Ri[a, 0] * x + Ri[a, 1] * y + Ri[a, 2] * z + ti[a]

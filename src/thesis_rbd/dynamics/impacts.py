@@ -1,0 +1,279 @@
+"""Impacts: bodies in free flight that ran into something during the step.
+
+After the narrow phase, a contact is a *hit* when one of its bodies flew freely through the
+step (the contact stage did not act on it), it penetrates and it approaches: the body met the
+other during the step. ``find_hits`` names them; the collision side
+steps the bodies back to the time of impact (``collision/time_of_impact.py``); ``resolve_impacts``
+then resolves each island with a stepped-back body in two phases:
+
+1. at the time of impact, the collision: Poisson's compression (no approach, with friction)
+   and restitution, e times the compression impulse, for contacts approaching faster than
+   their bounce threshold; no force acts during the instant of the collision, so a ball
+   leaves the floor at exactly e times its impact speed. Collisions are rare and their
+   answer decides where the bodies fly, so PGS must meet a millionth of the impact speed,
+   and a small island it cannot bring there is solved exactly;
+2. the rest of the step, t: the velocities the forces would give over t, and a resting-contact
+   solve on them, as the contact stage does at the start of every step. A body that the second
+   solve pushed (it came to rest, e = 0) moves with its new velocity; one it did not (it
+   bounced away) follows its exact ballistic path over t.
+
+Bodies that were not stepped back keep their positions; the impulses of both phases act on
+them as on the others.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.collision.time_of_impact import move_ballistic
+from thesis_rbd.dynamics import contact_settings as cs
+from thesis_rbd.dynamics.contact_kinematics import (
+    body_velocities,
+    contact_tolerances,
+    normal_velocity,
+    write_momenta,
+)
+from thesis_rbd.dynamics.contact_solver import contact_basis
+from thesis_rbd.dynamics.integrators import body_forces
+from thesis_rbd.dynamics.island_solver import solve_islands
+from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.dynamics.pgs import build_rows
+
+__all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
+
+# PGS velocity tolerance of a collision, relative to the island's fastest approach.
+IMPACT_TOLERANCE = 1e-6
+
+
+@njit
+def any_free_body(body_a, body_b, frozen, solved):
+    """Whether a contact has a body that is neither frozen nor moved by the contact stage."""
+    for k in range(body_a.shape[0]):
+        a, b = body_a[k], body_b[k]
+        if not (frozen[a] or solved[a]) or not (frozen[b] or solved[b]):
+            return True
+    return False
+
+
+@njit
+def find_hits(count, static, movers, body_a, body_b, points, normals, depths, position,
+              orientation, linear_momentum, angular_momentum, inverse_mass,
+              inverse_inertia_body):  # fmt: skip
+    """Contacts a body in free flight ran into during the step: it penetrates (depth > 0)
+    and approaches.
+
+    Returns ``hits`` (c,) bool and the body velocities v, w (n, 3) at the end of the step.
+    """
+    c = body_a.shape[0]
+    v, w, _ = body_velocities(
+        count, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+        inverse_inertia_body,
+    )  # fmt: skip
+    hits = np.zeros(c, np.bool_)
+    arm_a = np.empty((c, 3))
+    arm_b = np.empty((c, 3))
+    for k in range(c):
+        for a in range(3):
+            arm_a[k, a] = points[k, a] - position[body_a[k], a]
+            arm_b[k, a] = points[k, a] - position[body_b[k], a]
+    for k in range(c):
+        a, b = body_a[k], body_b[k]
+        if not (movers[a] or movers[b]) or depths[k] <= 0.0:
+            continue
+        hits[k] = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w) < 0.0
+    return hits, v, w
+
+
+@njit
+def resolve_impacts(
+    settings, polygon, count, static, rewind, body_a, body_b, points, normals, depths,
+    position, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, inertia_body, thickness, restitution, friction,
+    external_force, drag, pf_start, pf_arm, pf_force, impulse,
+):  # fmt: skip
+    """Resolve the islands with a stepped-back body and carry them to the end of the step.
+
+    Parameters
+    ----------
+    settings, polygon, count, static
+        As ``resting_contact.solve_contacts``.
+    rewind : (>= n,) float64
+        How far each body was stepped back (0: not).
+    body_a ... depths
+        The contact set after the time-of-impact stage (c rows).
+    position ... friction
+        Body state and constants; state of the islands' bodies updated in place.
+    external_force, drag, pf_start, pf_arm, pf_force
+        The step's forces.
+    impulse : (c, 3) float64
+        Out: each contact's total impulse in its (n, t1, t2) frame (zero outside the islands).
+
+    Returns
+    -------
+    stats : (6,) int64
+        ``resting_contact.STATS``.
+    resolved : (c,) bool
+        The contacts of the resolved islands.
+    """
+    dt = settings[cs.DT]
+    n = count
+    c = body_a.shape[0]
+    stats = np.zeros(6, np.int64)
+    stats[5] = -1
+    body_island, order, island_start = find_islands(n, body_a, body_b, static)
+    islands = island_start.shape[0] - 1
+    island_time = np.zeros(islands)
+    for i in range(n):
+        if body_island[i] >= 0:
+            island_time[body_island[i]] = max(island_time[body_island[i]], rewind[i])
+    # keep the contacts of islands with a stepped-back body, island by island
+    keep = np.zeros(c, np.bool_)
+    starts = [0]
+    kept = 0
+    for isl in range(islands):
+        if island_time[isl] <= 0.0:
+            continue
+        for idx in range(island_start[isl], island_start[isl + 1]):
+            keep[order[idx]] = True
+        kept += island_start[isl + 1] - island_start[isl]
+        starts.append(kept)
+    resolved = keep.copy()
+    if kept == 0:
+        return stats, resolved
+    stats[0] = len(starts) - 1
+    sel = np.empty(kept, np.int64)
+    m = 0
+    for isl in range(islands):
+        if island_time[isl] > 0.0:
+            for idx in range(island_start[isl], island_start[isl + 1]):
+                sel[m] = order[idx]
+                m += 1
+    sub_start = np.array(starts, np.int64)
+    sa, sb = body_a[sel], body_b[sel]
+    arm_a = np.empty((kept, 3))
+    arm_b = np.empty((kept, 3))
+    for k in range(kept):
+        for a in range(3):
+            arm_a[k, a] = points[sel[k], a] - position[sa[k], a]
+            arm_b[k, a] = points[sel[k], a] - position[sb[k], a]
+    sub_normals = normals[sel]
+    basis = contact_basis(sub_normals)
+    slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
+    v, w, inverse_inertia = body_velocities(
+        n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+        inverse_inertia_body,
+    )  # fmt: skip
+    # each body's acceleration over the step, for the bounce thresholds and the rest of it
+    acceleration = np.zeros((n, 3))
+    alpha = np.zeros((n, 3))
+    for i in range(n):
+        if static[i]:
+            continue
+        F, T = body_forces(
+            i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
+            inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
+        )  # fmt: skip
+        Ii = inverse_inertia[i]
+        for a in range(3):
+            acceleration[i, a] = F[a] * inverse_mass[i]
+            alpha[i, a] = Ii[a, 0] * T[0] + Ii[a, 1] * T[1] + Ii[a, 2] * T[2]
+
+    # 1. the collision at the time of impact
+    movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
+    rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
+    bias = np.empty(kept)
+    bounce = np.zeros(kept)
+    mu = np.empty(kept)
+    tolerance = np.empty(kept)
+    fastest = 0.0
+    for k in range(kept):
+        a, b = sa[k], sb[k]
+        u = normal_velocity(k, a, b, sub_normals, arm_a, arm_b, v, w)
+        fastest = max(fastest, abs(u))
+        du = 0.0
+        for i in range(3):
+            du += sub_normals[k, i] * dt * (acceleration[a, i] - acceleration[b, i])
+        threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
+        if u < -threshold:
+            bounce[k] = restitution[a] * restitution[b]
+        # a contact not touching yet (beyond round-off: within the slop) takes no part in the
+        # collision
+        bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
+        mu[k] = math.sqrt(friction[a] * friction[b])
+    for k in range(kept):
+        tolerance[k] = IMPACT_TOLERANCE * fastest
+    lam = np.zeros((kept, 3))
+    solve_islands(
+        settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
+        tolerance, movable_mass, inverse_inertia, v, w, lam, stats,
+    )  # fmt: skip
+
+    # 2. the rest of the step: forces over it, then resting contact
+    v1 = v.copy()
+    w1 = w.copy()
+    for i in range(n):
+        t = rewind[i]
+        if t > 0.0:
+            for a in range(3):
+                v[i, a] += t * acceleration[i, a]
+                w[i, a] += t * alpha[i, a]
+    for k in range(kept):
+        # hold touching contacts; one not touching yet may close its gap
+        bias[k] = max(-depths[sel[k]], 0.0) / dt
+        bounce[k] = 0.0
+        tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
+    rest = np.zeros((kept, 3))
+    solve_islands(
+        settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
+        tolerance, movable_mass, inverse_inertia, v, w, rest, stats,
+    )  # fmt: skip
+
+    pushed = np.zeros(n, np.bool_)
+    touched = np.zeros(n, np.bool_)
+    for k in range(kept):
+        for i in (sa[k], sb[k]):
+            if static[i]:
+                continue
+            touched[i] = True
+            if rest[k, 0] != 0.0 or rest[k, 1] != 0.0 or rest[k, 2] != 0.0:
+                pushed[i] = True
+    # Momenta are written where the collision happened: L = I w holds at the orientation of
+    # the time of impact, and the motion over the rest of the step then keeps L (it turns the
+    # body, not its angular momentum). A stepped-back body the resting solve did not push flies
+    # on ballistically (its forces act over t after the collision); one it pushed moves with
+    # the velocities of that solve, which hold the forces' share already.
+    flying = np.zeros(n, np.bool_)
+    for i in range(n):
+        if rewind[i] > 0.0 and touched[i] and not pushed[i]:
+            flying[i] = True
+            for a in range(3):
+                v[i, a] = v1[i, a]
+                w[i, a] = w1[i, a]
+    stats[5] = write_momenta(
+        np.flatnonzero(touched), orientation, inertia_body, inverse_mass, v, w,
+        linear_momentum, angular_momentum,
+    )  # fmt: skip
+    still = np.zeros((n, 3))
+    for i in range(n):
+        t = rewind[i]
+        if t <= 0.0 or not touched[i]:
+            continue
+        one = np.array([i])
+        if flying[i]:
+            move_ballistic(one, t, v, w, acceleration, position, orientation)
+            F, T = body_forces(
+                i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
+                inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
+            )  # fmt: skip
+            for a in range(3):
+                linear_momentum[i, a] = v[i, a] / inverse_mass[i]
+                angular_momentum[i, a] += t * T[a]
+        else:
+            move_ballistic(one, t, v, w, still, position, orientation)
+    for k in range(kept):
+        for d in range(3):
+            impulse[sel[k], d] = lam[k, d] + rest[k, d]
+    return stats, resolved

@@ -1,0 +1,190 @@
+"""Solving the contacts of every island: impulses, restitution, and position correction.
+
+The contacts arrive sorted by island (island i is the slice ``island_start[i]:island_start[i+1]``)
+with their frames and the rows of ``pgs.build_rows``. Three operations, each one loop over the
+islands inside numba:
+
+* ``solve_islands``: the velocity problem of each island by projected Gauss-Seidel warm
+  started from the previous step, or exactly by Lemke's method when the settings ask for it, or
+  ("auto") when PGS has not converged on an island of at most ``EXACT_LIMIT`` contacts, which
+  is what holds a heavy body on a light one; then Poisson's restitution, e times each bouncing
+  contact's compression impulse.
+* ``correct_positions``: removes penetration beyond the slop at contacts where that creates no
+  momentum (Bullet's split impulse, restricted): a normal-only solve on pseudo-velocities
+  that move the bodies over the step and are then forgotten, so no velocity is left behind and
+  a resting stack does not jitter. Moving two bodies apart by J / m while they slide past each
+  other would change the angular momentum by dt J x v_rel, so it is done only where one body is
+  static or the two are at rest relative to each other; elsewhere the contact stage corrects
+  through the velocities instead (an impulse at the contact point, which conserves both
+  momenta exactly).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.dynamics import contact_settings as cs
+from thesis_rbd.dynamics.contact_solver import solve_exact
+from thesis_rbd.dynamics.pgs import sweep_island
+from thesis_rbd.spatial.quaternion import mul, normalize
+
+__all__ = ["correct_positions", "solve_islands"]
+
+
+@njit
+def solve_islands(
+    settings, polygon, island_start, body_a, body_b, arm_a, arm_b, basis, rows, bias, bounce,
+    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats,
+):  # fmt: skip
+    """Solve each island's contacts, then add Poisson's restitution, in place.
+
+    Parameters
+    ----------
+    settings, polygon
+        ``ContactSettings.as_array(dt)`` and ``pgs.friction_polygon(sides)``.
+    island_start : (m + 1,) int64
+    body_a, body_b, arm_a, arm_b, basis
+        The island-sorted contacts (c rows): bodies, arms from each centre of mass (world),
+        frames (rows n, t1, t2).
+    rows : tuple
+        ``pgs.build_rows`` of those contacts.
+    bias, bounce, friction, tolerance : (c,) float64
+        Normal bias (u_n + bias >= 0; +inf for a contact that takes no part), restitution of
+        the contacts that bounce (0 for the others), friction coefficient, velocity tolerance
+        of PGS (m/s).
+    inverse_mass : (n,) float64
+        Zero for bodies that must not move.
+    inverse_inertia : (n, 3, 3) float64
+        World frame.
+    v, w : (n, 3) float64
+        Body velocities, updated with every impulse.
+    impulse : (c, 3) float64
+        Warm start in, answer out, in each contact's (n, t1, t2) frame.
+    stats : (6,) int64
+        ``resting_contact.STATS`` counters, updated.
+    """
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    solver = int(settings[cs.SOLVER])
+    iterations = int(settings[cs.ITERATIONS])
+    exact_limit = int(settings[cs.EXACT_LIMIT])
+    sides = polygon.shape[0] - 1
+    v_start = v.copy()
+    w_start = w.copy()
+    for isl in range(island_start.shape[0] - 1):
+        s, e = island_start[isl], island_start[isl + 1]
+        exact = solver == 2
+        if not exact:
+            sweeps, converged = sweep_island(
+                s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
+                angular_b, response_a, response_b, normal_step, tangent_step, inverse_mass,
+                bias, friction, v, w, impulse,
+            )  # fmt: skip
+            stats[1] += sweeps
+            stats[2] = max(stats[2], sweeps)
+            if not converged:
+                if solver == 0 and e - s <= exact_limit:
+                    exact = True
+                else:
+                    stats[4] += 1
+        if exact:
+            velocity_scale = 0.0
+            for k in range(s, e):  # back to the velocities before this island's impulses
+                velocity_scale = max(velocity_scale, tolerance[k] / settings[cs.TOLERANCE])
+                for i in (body_a[k], body_b[k]):
+                    for a in range(3):
+                        v[i, a] = v_start[i, a]
+                        w[i, a] = w_start[i, a]
+            # contacts with an infinite bias can never bind: they stay out of the LCP
+            taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
+            for k in range(s, e):
+                for d in range(3):
+                    impulse[k, d] = 0.0
+            frame = (
+                body_a[taking_part], body_b[taking_part], arm_a[taking_part],
+                arm_b[taking_part], basis[taking_part],
+            )  # fmt: skip
+            answer = np.zeros((taking_part.shape[0], 3))
+            status = solve_exact(
+                sides, frame, bias[taking_part], friction[taking_part],
+                (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
+            )  # fmt: skip
+            for idx in range(taking_part.shape[0]):
+                for d in range(3):
+                    impulse[taking_part[idx], d] = answer[idx, d]
+            stats[3] += 1
+            stats[4] += status != 0
+
+    for k in range(body_a.shape[0]):
+        extra = bounce[k] * impulse[k, 0]
+        if extra > 0.0:
+            a, b = body_a[k], body_b[k]
+            for i in range(3):
+                v[a, i] += inverse_mass[a] * extra * basis[k, 0, i]
+                v[b, i] -= inverse_mass[b] * extra * basis[k, 0, i]
+                w[a, i] += extra * response_a[k, 0, i]
+                w[b, i] -= extra * response_b[k, 0, i]
+            impulse[k, 0] += extra
+
+
+@njit
+def correct_positions(
+    settings, island_start, body_a, body_b, basis, rows, push, tolerance, inverse_mass,
+    position, orientation,
+):  # fmt: skip
+    """Move bodies out of the penetration ``push`` asks for, without touching their momenta.
+
+    Parameters
+    ----------
+    settings, island_start, body_a, body_b, basis, rows, tolerance, inverse_mass
+        As ``solve_islands``.
+    push : (c,) float64
+        Separation speed each contact must reach in the pseudo-velocities (the penetration to
+        remove this step over dt); -np.inf where the contact takes no part (it can then
+        never bind).
+    position, orientation : (>= n, 3), (>= n, 4) float64
+        Moved in place by dt times the pseudo-velocities.
+
+    Returns
+    -------
+    sweeps : int
+    """
+    c = body_a.shape[0]
+    if c == 0 or push.max() == -np.inf:
+        return 0  # nothing to push out: the common case of resting contact
+    dt = settings[cs.DT]
+    n = inverse_mass.shape[0]
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    pseudo_v = np.zeros((n, 3))
+    pseudo_w = np.zeros((n, 3))
+    lam = np.zeros((c, 3))
+    frictionless = np.zeros(c)
+    bias = -push
+    sweeps = 0
+    no_polygon = np.zeros((4, 2))
+    for isl in range(island_start.shape[0] - 1):
+        s, e = island_start[isl], island_start[isl + 1]
+        active = False
+        for k in range(s, e):
+            active |= push[k] != -np.inf
+        if not active:
+            continue
+        done, _ = sweep_island(
+            s, e, int(settings[cs.ITERATIONS]), tolerance, no_polygon, body_a, body_b, basis,
+            angular_a, angular_b, response_a, response_b, normal_step, tangent_step,
+            inverse_mass, bias, frictionless, pseudo_v, pseudo_w, lam,
+        )  # fmt: skip
+        sweeps += done
+    for i in range(n):
+        rx, ry, rz = dt * pseudo_w[i, 0], dt * pseudo_w[i, 1], dt * pseudo_w[i, 2]
+        for a in range(3):
+            position[i, a] += dt * pseudo_v[i, a]
+        angle = np.sqrt(rx * rx + ry * ry + rz * rz)
+        if angle > 0.0:
+            s_half = np.sin(0.5 * angle) / angle
+            turn = (rx * s_half, ry * s_half, rz * s_half, np.cos(0.5 * angle))
+            q = (orientation[i, 0], orientation[i, 1], orientation[i, 2], orientation[i, 3])
+            q = normalize(mul(turn, q))
+            for a in range(4):
+                orientation[i, a] = q[a]
+    return sweeps

@@ -1,0 +1,251 @@
+"""The contact stage: contact impulses computed before the positions move.
+
+Velocity-level time stepping (Stewart and Trinkle 1996; Anitescu and Potra 1997): the contacts
+found at the start of the step act across it. With v the velocities at the start of the step
+and v* = v + dt M^-1 F the velocities the forces alone would give at its end, the stage finds
+impulses lambda at the contacts such that v+ = v* + M^-1 J^T lambda satisfies, per contact,
+
+    0 <= lambda_n  _|_  u_n+ + bias >= 0,      lambda_t in the friction polygon of mu lambda_n
+
+(maximal dissipation), and the integrator then moves the bodies it touched with v+. A body
+resting on a floor therefore never sinks under gravity: its v+ has no approach, so its
+positions do not move into the floor (moving first and repairing afterwards sinks it
+g dt^2 / 2 every step, 85 um at 240 Hz, most of a 1 mm part).
+
+Per contact (tolerances in ``contact_settings``):
+
+* a contact not touching yet (depth < 0: the narrow phase reports pairs within a small
+  margin) may close its gap over the step and no more; one approaching it fast is left to the
+  time of impact;
+* a contact approaching faster than its bounce threshold (read from v, before the forces)
+  bounces: compression (bias 0), then e times its compression impulse (Poisson's restitution,
+  which unlike Newton's law at simultaneous contacts never adds energy);
+* a contact shallower than its slop may approach by ``BAUMGARTE`` of the difference per step,
+  so that touching bodies settle to where their contact is found every step;
+* penetration beyond the slop is removed at ``BAUMGARTE`` of it per step: by pseudo-velocities
+  that move the bodies and leave no velocity behind where that creates no momentum (one body
+  static, or the two at rest relative to each other; ``island_solver.correct_positions``),
+  else through the velocity, an impulse at the contact point that conserves both momenta.
+
+Everything runs in one kernel call per step, whatever the number of islands and contacts.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.dynamics import contact_settings as cs
+from thesis_rbd.dynamics.contact_kinematics import (
+    body_velocities,
+    contact_tolerances,
+    normal_velocity,
+    write_momenta,
+)
+from thesis_rbd.dynamics.contact_solver import contact_basis
+from thesis_rbd.dynamics.integrators import body_forces
+from thesis_rbd.dynamics.island_solver import correct_positions, solve_islands
+from thesis_rbd.dynamics.islands import find_islands, order_from_the_top
+from thesis_rbd.dynamics.pgs import build_rows
+from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses, pair_keys
+from thesis_rbd.spatial.quaternion import to_matrix_into
+
+__all__ = ["STATS", "solve_contacts"]
+
+# Entries of the statistics array the contact kernels return.
+STATS = ("islands", "sweeps", "max_sweeps", "exact_islands", "unconverged", "bad_body")
+
+
+@njit
+def solve_contacts(
+    settings, polygon, count, static,
+    body_a, body_b, points, normals, depths, features,
+    position, orientation, linear_momentum, angular_momentum,
+    inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
+    external_force, drag, pf_start, pf_arm, pf_force,
+    old_keys, old_values, impulse, solved, stats,
+):  # fmt: skip
+    """Solve every island's contacts for this step and write the momenta of the bodies hit.
+
+    Parameters
+    ----------
+    settings : (8,) float64
+        ``ContactSettings.as_array(dt)``.
+    polygon : (sides + 1, 2) float64
+        ``pgs.friction_polygon(sides)``.
+    count : int
+        Number of bodies n.
+    static : (>= n,) bool
+        Bodies that do not move this step (static or asleep).
+    body_a, body_b, points, normals, depths, features
+        The contacts (c rows) at the start of the step: bodies, world points, unit normals
+        from b towards a, penetration depths (negative: a gap not yet closed), feature ids
+        (-1: none).
+    position, orientation, linear_momentum, angular_momentum
+        Body state (>= n rows). The momenta of bodies hit by an impulse become P = M v+,
+        L = I w+ (world); position correction moves bodies.
+    inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction
+        Body constants.
+    external_force, drag, pf_start, pf_arm, pf_force
+        The step's forces, as the integrator takes them.
+    old_keys, old_values
+        The previous step's contacts (``WarmStart``).
+    impulse : (c, 3) float64
+        Out: (lambda_n, lambda_t1, lambda_t2) of each contact in its (n, t1, t2) frame.
+    solved : (>= n,) bool
+        Out: True for the bodies an impulse acted on (they move with v+); others untouched.
+    stats : (6,) int64
+        Out: see ``STATS``; ``bad_body`` is the first body whose new state is not finite (-1
+        if none).
+
+    Returns
+    -------
+    keys, values : (c, 2) int64, (c, 6) float64
+        The next step's ``WarmStart`` arrays. (Results are written into arrays the caller
+        passes wherever their size is known: each array a kernel returns costs a
+        microsecond of boxing, most of a small scene's budget.)
+    """
+    dt = settings[cs.DT]
+    rate = settings[cs.BIAS_RATE]
+    c = body_a.shape[0]
+    n = count
+    stats[:] = 0
+    stats[5] = -1
+    movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
+
+    # velocities before (v0) and after (v*) the step's forces
+    v0, w0, inverse_inertia = body_velocities(
+        n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+        inverse_inertia_body,
+    )  # fmt: skip
+    v = v0.copy()
+    w = w0.copy()
+    involved = np.zeros(n, np.bool_)
+    for k in range(c):
+        involved[body_a[k]] = not static[body_a[k]]
+        involved[body_b[k]] = not static[body_b[k]]
+    for i in range(n):
+        if not involved[i]:
+            continue
+        F, T = body_forces(
+            i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
+            inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
+        )  # fmt: skip
+        Ii = inverse_inertia[i]
+        for a in range(3):
+            v[i, a] += dt * F[a] * inverse_mass[i]
+            w[i, a] += dt * (Ii[a, 0] * T[0] + Ii[a, 1] * T[1] + Ii[a, 2] * T[2])
+
+    # islands; contacts re-ordered so that each island is one slice
+    _, order, island_start = find_islands(n, body_a, body_b, static)
+    order = order_from_the_top(n, body_a, body_b, static, order, island_start)
+    stats[0] = island_start.shape[0] - 1
+    sa = body_a[order]
+    sb = body_b[order]
+    arm_a = np.empty((c, 3))
+    arm_b = np.empty((c, 3))
+    for k in range(c):
+        for a in range(3):
+            arm_a[k, a] = points[order[k], a] - position[sa[k], a]
+            arm_b[k, a] = points[order[k], a] - position[sb[k], a]
+    sorted_normals = normals[order]
+    basis = contact_basis(sorted_normals)
+    slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
+
+    bias = np.empty(c)
+    bounce = np.zeros(c)
+    push = np.full(c, -np.inf)
+    mu = np.empty(c)
+    tolerance = np.empty(c)
+    for k in range(c):
+        a, b = sa[k], sb[k]
+        depth = depths[order[k]]
+        u_before = normal_velocity(k, a, b, sorted_normals, arm_a, arm_b, v0, w0)
+        u_forced = normal_velocity(k, a, b, sorted_normals, arm_a, arm_b, v, w)
+        rest_speed = settings[cs.BOUNCE_SPEED] * slop[k] / dt
+        relative = 0.0
+        for i in range(3):
+            relative += (v0[a, i] - v0[b, i]) ** 2
+        at_rest = static[a] or static[b] or relative <= rest_speed * rest_speed
+        approaching_fast = u_before < -(2.0 * abs(u_forced - u_before) + rest_speed)
+        if depth < 0.0:
+            # not touching yet (a speculative contact): it may close its gap this step; a
+            # body flying at it is left to the time of impact, which catches its bounce
+            bias[k] = np.inf if approaching_fast else -depth / dt
+        elif approaching_fast:
+            bounce[k] = restitution[a] * restitution[b]
+            bias[k] = 0.0
+        elif depth <= slop[k] or at_rest:
+            bias[k] = 0.0
+        else:
+            bias[k] = -rate * (depth - slop[k]) / dt
+        if depth > slop[k] and at_rest:
+            push[k] = rate * (depth - slop[k]) / dt
+        mu[k] = math.sqrt(friction[a] * friction[b])
+        tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
+
+    # warm start from the previous step's matching contacts
+    keys = pair_keys(sa, sb, n)
+    sorted_features = features[order]
+    local = np.empty((c, 3))
+    radius = np.empty(c)
+    R = np.empty((3, 3))
+    for k in range(c):
+        to_matrix_into(orientation[sa[k]], R)
+        for a in range(3):
+            local[k, a] = R[0, a] * arm_a[k, 0] + R[1, a] * arm_a[k, 1] + R[2, a] * arm_a[k, 2]
+        radius[k] = MATCH_FRACTION * slop[k] / settings[cs.SLOP]
+    warm = find_warm_impulses(keys, sorted_features, local, radius, old_keys, old_values)
+    lam = np.empty((c, 3))
+    for k in range(c):
+        for d in range(3):
+            lam[k, d] = basis[k, d, 0] * warm[k, 0] + basis[k, d, 1] * warm[k, 1]
+            lam[k, d] += basis[k, d, 2] * warm[k, 2]
+
+    rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
+    solve_islands(
+        settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
+        tolerance, movable_mass, inverse_inertia, v, w, lam, stats,
+    )  # fmt: skip
+    stats[1] += correct_positions(
+        settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
+        orientation,
+    )  # fmt: skip
+
+    # the bodies an impulse acted on move with v+; the others keep their state untouched
+    hit = np.zeros(n, np.bool_)
+    for k in range(c):
+        if lam[k, 0] != 0.0 or lam[k, 1] != 0.0 or lam[k, 2] != 0.0:
+            hit[sa[k]] = not static[sa[k]]
+            hit[sb[k]] = not static[sb[k]]
+    moved = np.flatnonzero(hit)
+    stats[5] = write_momenta(
+        moved, orientation, inertia_body, inverse_mass, v, w, linear_momentum, angular_momentum
+    )
+    for i in moved:
+        solved[i] = True
+        if stats[5] < 0 and not math.isfinite(
+            position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
+        ):
+            stats[5] = i
+
+    # impulses back in the caller's order; the world vectors are the next warm start
+    world_impulse = np.empty((c, 3))
+    for k in range(c):
+        for a in range(3):
+            world_impulse[k, a] = (
+                lam[k, 0] * basis[k, 0, a] + lam[k, 1] * basis[k, 1, a] + lam[k, 2] * basis[k, 2, a]
+            )
+        impulse[order[k]] = lam[k]
+    by_key = np.argsort(keys, kind="mergesort")
+    new_keys = np.empty((c, 2), np.int64)
+    new_values = np.empty((c, 6))
+    for m in range(c):
+        k = by_key[m]
+        new_keys[m, 0], new_keys[m, 1] = keys[k], sorted_features[k]
+        for a in range(3):
+            new_values[m, a] = local[k, a]
+            new_values[m, 3 + a] = world_impulse[k, a]
+    return new_keys, new_values

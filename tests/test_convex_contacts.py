@@ -1,0 +1,322 @@
+"""Convex-polyhedron contact against the naive oracle, the mesh path and python-fcl."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+import thesis_rbd as rbd
+from tests.reference_convex import (
+    best_four_area,
+    contact_polygon,
+    hull_planes,
+    least_penetration,
+    polygon_area,
+)
+from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
+from thesis_rbd.collision.convex_hull_data import HullSet
+
+
+def random_hull_mesh(seed, count):
+    points = np.random.default_rng(seed).normal(size=(count, 3))
+    return rbd.TriangleMesh.from_trimesh(trimesh.convex.convex_hull(points))
+
+
+def make_shape(kind, seed, aspect):
+    rng = np.random.default_rng(seed)
+    if kind == "box":
+        return rbd.shapes.box(np.exp(rng.uniform(-1, 1, 3) * math.log(aspect)))
+    if kind == "hull":
+        return random_hull_mesh(seed, int(rng.integers(4, 65)))
+    if kind == "icosphere":
+        return rbd.shapes.icosphere(1.0, int(rng.integers(1, 3)))
+    return rbd.shapes.cylinder(0.5, float(rng.uniform(0.3, 2.0)), int(rng.integers(5, 25)))
+
+
+def scaled(mesh, scale):
+    return rbd.TriangleMesh(mesh.vertices * scale, mesh.faces)
+
+
+class Pair:
+    """Two meshes at poses, run through the convex kernel and the oracle."""
+
+    def __init__(self, mesh_a, mesh_b, pose_a, pose_b):
+        self.meshes = (mesh_a, mesh_b)
+        self.hulls = HullSet()
+        self.hull_of_body = np.array([self.hulls.hull_of(mesh_a), self.hulls.hull_of(mesh_b)])
+        assert (self.hull_of_body >= 0).all()
+        self.position = np.array([pose_a[0], pose_b[0]], dtype=float)
+        self.orientation = np.array([pose_a[1], pose_b[1]], dtype=float)
+        self.points_a = self.world(0)
+        self.points_b = self.world(1)
+        self.size = max(mesh_a.scale, mesh_b.scale)
+
+    def world(self, body):
+        R = Rotation.from_quat(self.orientation[body]).as_matrix()
+        return self.meshes[body].vertices @ R.T + self.position[body]
+
+    def contacts(self, cache=None):
+        cache = empty_cache() if cache is None else cache
+        out = convex_contacts_for_pairs(
+            np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+            self.position, self.orientation, np.zeros((2, 3)), *cache,
+        )  # fmt: skip
+        keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
+        return dict(zip(keys, out[:7], strict=False)), out[7:]
+
+
+def placed_pair(mesh_a, mesh_b, rotation_a, rotation_b, direction, depth_fraction, scale):
+    """B placed against A along ``direction`` (from A), overlapping by depth_fraction * size
+    along it (negative: apart)."""
+    mesh_a, mesh_b = scaled(mesh_a, scale), scaled(mesh_b, scale)
+    qa, qb = rotation_a.as_quat(), rotation_b.as_quat()
+    va = mesh_a.vertices @ rotation_a.as_matrix().T
+    vb = mesh_b.vertices @ rotation_b.as_matrix().T
+    u = direction / np.linalg.norm(direction)
+    gap = (va @ u).max() - (vb @ u).min()
+    size = max(mesh_a.scale, mesh_b.scale)
+    offset = u * (gap - depth_fraction * size)
+    return Pair(mesh_a, mesh_b, (np.zeros(3), qa), (offset, qb))
+
+
+SHAPES = st.sampled_from(["box", "hull", "icosphere", "cylinder"])
+SCALES = st.floats(-4, 3).map(lambda e: 10.0**e)
+
+
+@st.composite
+def pairs(draw, kinds=SHAPES, depths=(-0.05, 1e-6, 1e-3, 0.05, 0.3)):
+    kind_a, kind_b = draw(kinds), draw(kinds)
+    seed_a, seed_b = draw(st.integers(0, 2**31)), draw(st.integers(0, 2**31))
+    aspect = draw(st.sampled_from([1.0, 4.0, 30.0]))
+    mesh_a = make_shape(kind_a, seed_a, aspect)
+    mesh_b = make_shape(kind_b, seed_b, aspect)
+    situation = draw(st.sampled_from(["random", "aligned", "nearly_parallel", "edge"]))
+    ra = Rotation.random(random_state=draw(st.integers(0, 2**31)))
+    if situation == "random":
+        rb = Rotation.random(random_state=draw(st.integers(0, 2**31)))
+    elif situation == "aligned":
+        rb = ra
+    elif situation == "nearly_parallel":
+        tilt = draw(st.floats(-7, -2).map(lambda e: 10.0**e))
+        axis = np.random.default_rng(seed_b).normal(size=3)
+        rb = Rotation.from_rotvec(tilt * axis / np.linalg.norm(axis)) * ra
+    else:
+        rb = Rotation.from_euler("xyz", [45, 45, 0], degrees=True) * ra
+    direction = np.random.default_rng(seed_a ^ seed_b).normal(size=3)
+    if situation in ("aligned", "nearly_parallel"):
+        direction = ra.apply(np.eye(3)[draw(st.integers(0, 2))])
+    depth = draw(st.sampled_from(depths))
+    return placed_pair(mesh_a, mesh_b, ra, rb, direction, depth, draw(SCALES))
+
+
+@st.composite
+def face_pairs(draw):
+    """Pairs pressed face to face: a face of B turned against a face of A, then tilted,
+    turned about the normal and slid sideways."""
+    kinds = st.sampled_from(["box", "hull", "cylinder"])
+    kind_a, kind_b = draw(kinds), draw(kinds)
+    seed_a, seed_b = draw(st.integers(0, 2**31)), draw(st.integers(0, 2**31))
+    aspect = draw(st.sampled_from([1.0, 4.0, 30.0]))
+    scale = draw(SCALES)
+    mesh_a = scaled(make_shape(kind_a, seed_a, aspect), scale)
+    mesh_b = scaled(make_shape(kind_b, seed_b, aspect), scale)
+    normals_a, _ = hull_planes(mesh_a.vertices)
+    normals_b, _ = hull_planes(mesh_b.vertices)
+    na = normals_a[draw(st.integers(0, len(normals_a) - 1))]
+    nb = normals_b[draw(st.integers(0, len(normals_b) - 1))]
+    turn = Rotation.from_rotvec(na * draw(st.floats(0, 2 * math.pi)))
+    rb = turn * Rotation.align_vectors([-na], [nb])[0]
+    tilt = draw(st.sampled_from([0.0, 1e-7, 1e-3, 0.05]))
+    axis = np.cross(na, np.random.default_rng(seed_b).normal(size=3))
+    rb = Rotation.from_rotvec(tilt * axis / np.linalg.norm(axis)) * rb
+    vb = rb.apply(np.array(mesh_b.vertices))
+    size = max(mesh_a.scale, mesh_b.scale)
+    depth = draw(st.sampled_from([1e-6, 1e-3, 0.05])) * size
+    slide = np.cross(na, np.random.default_rng(seed_a).normal(size=3))
+    slide *= draw(st.floats(0, 0.3)) * size / np.linalg.norm(slide)
+    offset = na * ((mesh_a.vertices @ na).max() - (vb @ na).min() - depth) + slide
+    return Pair(mesh_a, mesh_b, (np.zeros(3), np.array([0, 0, 0, 1.0])), (offset, rb.as_quat()))
+
+
+def check_against_oracle(pair):
+    depth, normal, runner_up, face_depth, edge_depth = least_penetration(
+        pair.points_a, pair.points_b
+    )
+    size = pair.size
+    contacts, _ = pair.contacts()
+    assume(abs(depth) > 1e-9 * size)  # touching to round-off: either answer is right
+    if depth < 0:
+        assert len(contacts["depths"]) == 0
+        return None
+    assert 1 <= len(contacts["depths"]) <= 4
+    assert abs(contacts["depths"].max() - depth) <= 1e-9 * size
+    assert (contacts["depths"] >= 0).all()
+    n = contacts["normals"]
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
+    assert np.ptp(n, axis=0).max() == 0.0  # one normal per pair
+    if runner_up > depth + 1e-8 * size:
+        angle = math.acos(min(1.0, float(n[0] @ normal)))
+        assert angle <= 1e-6
+    for points in (pair.points_a, pair.points_b):
+        planes, offsets = hull_planes(points)
+        outside = (contacts["points"] @ planes.T - offsets).max(axis=1)
+        assert (outside <= contacts["depths"].max() + 1e-9 * size).all()
+    unique = runner_up > depth + 1e-8 * size
+    if edge_depth < face_depth - 1e-9 * size and unique:
+        # an edge-edge contact is one point, unless nearly flat on a face (then it is that
+        # face's manifold, see convex_contacts)
+        face_normals = np.concatenate(
+            [hull_planes(pair.points_a)[0], hull_planes(pair.points_b)[0]]
+        )
+        if np.abs(face_normals @ normal).max() < math.cos(0.011):
+            assert len(contacts["depths"]) == 1
+    return contacts, normal, unique
+
+
+@given(pairs())
+def test_convex_contact_matches_the_oracle(pair):
+    check_against_oracle(pair)
+
+
+@given(face_pairs())
+def test_face_contacts_match_the_oracle(pair):
+    check_against_oracle(pair)
+
+
+@settings(suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@given(face_pairs())
+def test_four_points_keep_most_of_the_contact_polygon(pair):
+    result = check_against_oracle(pair)
+    assume(result is not None)
+    contacts, normal, unique = result
+    assume(unique)
+    polygon, ambiguous, depths, parallel = contact_polygon(
+        pair.points_a, pair.points_b, contacts["normals"][0]
+    )
+    # faces within 0.01 rad of parallel: a tilted incident face keeps only its corners below
+    # the reference plane, not the polygon's corners on it (see convex_manifold)
+    assume(not ambiguous and len(polygon) >= 3 and parallel >= math.cos(0.009))
+    best = best_four_area(polygon, normal)
+    assume(best > 1e-6 * pair.size**2)
+    # the four keep the deepest corner (any of those tied to 1e-10 of the size), and then
+    # the largest area: at least 90 % of the best four with a deepest corner
+    deepest = np.flatnonzero(depths >= depths.max() - 1e-10 * pair.size)
+    kept = polygon_area(contacts["points"], normal)
+    assert kept >= 0.9 * best_four_area(polygon, normal, include=deepest)
+
+
+@given(
+    st.floats(0.05, 20.0),
+    st.floats(0.05, 20.0),
+    st.floats(0.0, 2 * math.pi),
+    st.sampled_from([0.0, 1e-6]),
+    st.floats(-0.4, 0.4),
+    SCALES,
+)
+def test_box_resting_face_down_spans_its_face(wide, deep, turn, tilt, shift, scale):
+    """A box pressed 1e-4 of its size into the top of a larger box: the manifold spans at
+    least 99 % of its bottom face."""
+    base = rbd.shapes.box((30.0, 30.0, 1.0))
+    extents = np.array([1.0, wide, deep])
+    box = rbd.shapes.box(extents)
+    rotation = Rotation.from_rotvec([tilt, 0, 0]) * Rotation.from_rotvec([0, 0, turn])
+    lowest = (rotation.apply(np.array(box.vertices)) @ [0, 0, 1]).min()
+    sink = 1e-4 * box.scale
+    centre = np.array([shift * 10, -shift * 10, 0.5 - lowest - sink]) * scale
+    pair = Pair(
+        scaled(base, scale), scaled(box, scale),
+        (np.zeros(3), np.array([0, 0, 0, 1.0])), (centre, rotation.as_quat()),
+    )  # fmt: skip
+    contacts, _ = pair.contacts()
+    assert len(contacts["depths"]) == 4
+    face = extents[0] * extents[1] * scale**2
+    assert polygon_area(contacts["points"], np.array([0, 0, 1.0])) >= 0.99 * face
+    np.testing.assert_allclose(contacts["normals"], [[0, 0, -1.0]] * 4, atol=2 * tilt + 1e-12)
+
+
+@settings(max_examples=20, suppress_health_check=[HealthCheck.filter_too_much])
+@given(pairs(depths=(1e-6, 1e-3)))
+def test_convex_path_agrees_with_the_mesh_path(pair):
+    """The OBBTree path's deepest contact (its region normal, its depth) on the same pair.
+
+    Shallow contacts only: the mesh path finds contacts where surfaces cross, so it sees
+    nothing of a body swallowed whole and judges a deep one by its crossing region.
+    """
+    from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
+
+    depth, _normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)
+    assume(depth > 1e-9 * pair.size and runner_up > depth + 1e-8 * pair.size)
+    trees = GeometrySet()
+    geometry = np.array([trees.geometry_of(mesh) for mesh in pair.meshes])
+    _, _, _, normals, depths, _, _ = contacts_for_pairs(
+        np.array([[0, 1]]), geometry, trees.arrays(), pair.position, pair.orientation,
+        np.zeros((2, 3)),
+    )  # fmt: skip
+    ours, _ = pair.contacts()
+    assert len(depths) and len(ours["depths"])
+    deepest = int(np.argmax(depths))
+    # ours is exact; the mesh path judges large regions by their face normals alone, so it
+    # may miss an edge axis that is a hair shallower: it is never closer to the oracle
+    ours_error = abs(ours["depths"].max() - depth)
+    mesh_error = abs(depths[deepest] - depth)
+    assert ours_error <= 1e-9 * pair.size
+    assert ours_error <= mesh_error + 1e-12 * pair.size
+    if mesh_error <= 1e-9 * pair.size:
+        assert abs(depths[deepest] - ours["depths"].max()) <= 2e-9 * pair.size
+        assert math.acos(min(1.0, float(normals[deepest] @ ours["normals"][0]))) <= 1e-6
+
+
+@settings(max_examples=30, suppress_health_check=[HealthCheck.filter_too_much])
+@given(pairs(kinds=st.sampled_from(["box", "hull", "icosphere"]), depths=(-0.05, 1e-3, 0.05)))
+def test_convex_path_agrees_with_fcl_convex(pair):
+    """python-fcl's convex-convex contact (GJK/EPA at its default tolerance 1e-6)."""
+    fcl = pytest.importorskip("fcl")
+    depth, _normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)
+    assume(abs(depth) > 1e-4 * pair.size and runner_up > depth + 1e-3 * pair.size)
+
+    def convex(points):
+        hull = trimesh.convex.convex_hull(points)
+        flat = np.column_stack([np.full(len(hull.faces), 3), hull.faces]).ravel()
+        return fcl.CollisionObject(fcl.Convex(np.array(hull.vertices), len(hull.faces), flat))
+
+    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
+    result = fcl.CollisionResult()
+    fcl.collide(convex(pair.points_a), convex(pair.points_b), request, result)
+    ours, _ = pair.contacts()
+    assert result.is_collision == (len(ours["depths"]) > 0)
+    if not result.is_collision:
+        return
+    theirs = result.contacts[0]
+    # fcl's normal points from the first object to the second: ours from B to A
+    assert abs(theirs.penetration_depth - ours["depths"].max()) <= 1e-5 * pair.size
+    assert float(-np.asarray(theirs.normal) @ ours["normals"][0]) >= math.cos(1e-3)
+
+
+def test_coherence_cache_keeps_features_and_answers():
+    """The returned cache fed back gives the same contacts; feature ids stay while the box
+    slides a little; a separated pair caches its separating axis and is rejected by it."""
+    base, box = rbd.shapes.box((4.0, 4.0, 1.0)), rbd.shapes.box((1.0, 1.0, 1.0))
+    identity = np.array([0, 0, 0, 1.0])
+    pair = Pair(base, box, (np.zeros(3), identity), (np.array([0.1, 0.2, 1 - 1e-3]), identity))
+    first, cache = pair.contacts()
+    again, cache2 = pair.contacts(cache)
+    for key in first:
+        np.testing.assert_array_equal(first[key], again[key])
+    for a, b in zip(cache, cache2, strict=False):
+        np.testing.assert_array_equal(a, b)
+    assert cache[0].tolist() == [1] and cache[1][0, 0] in (1, 2)
+    assert len(set(first["features"])) == 4
+    pair.position[1] += [1e-3, -1e-3, 0]
+    moved, _ = pair.contacts(cache)
+    assert set(moved["features"]) == set(first["features"])
+    pair.position[1, 2] += 0.1
+    apart, cache3 = pair.contacts(cache)
+    assert len(apart["depths"]) == 0
+    assert cache3[1][0, 0] == 1  # separated by A's top face
+    np.testing.assert_allclose(cache3[2][0], [0, 0, 1.0])
