@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 import thesis_rbd as rbd
+from tests.viser_recording import node_values, recording
 from thesis_rbd.cli import app
 
 runner = CliRunner()
@@ -43,7 +44,7 @@ def test_each_builtin_runs_and_writes_its_outputs(tmp_path, name):
     trajectory = rbd.Trajectory.load(out)
     assert trajectory.times[-1] == pytest.approx(0.5, abs=1e-9)
     assert trajectory.metadata["scene"] == name
-    assert "<canvas" in page.read_text()
+    assert "window.__VISER_EMBED_DATA__" in page.read_text()
     # the summary: a line per stage that ran, with its share of the time
     assert "integrate" in result.output and "%" in result.output
     assert f"wrote {out}, {page}" in result.output
@@ -52,7 +53,8 @@ def test_each_builtin_runs_and_writes_its_outputs(tmp_path, name):
 def test_run_without_a_scene_runs_the_default():
     result = invoke("run")
     assert result.exit_code == 0, result.output
-    assert result.output.startswith("dzhanibekov: 1 body, 12 s simulated in 2880 steps")
+    summary = [line for line in result.output.splitlines() if not line.startswith("thesis-rbd:")]
+    assert summary[0].startswith("dzhanibekov: 1 body, 12 s simulated in 2880 steps")
 
 
 def test_options_override_the_scene(tmp_path):
@@ -146,7 +148,10 @@ def test_contacts_are_recorded_on_request_and_by_the_tori_demo(tmp_path):
     trajectory = rbd.Trajectory.load(out)
     assert trajectory.has_contacts and trajectory.contact_counts().max() > 0
     assert f"({len(trajectory)} frames, {len(trajectory.contact_points)} contacts)" in asked.output
-    assert '"contacts":' in page.read_text()
+    shown = node_values(
+        recording(page.read_text()), "SetSceneNodeVisibilityMessage", "/contacts/points", "visible"
+    )
+    assert any(visible for _, visible in shown)
     plain = invoke("run", "bouncing_ball", "-s", 0.1, "-o", out)
     assert plain.exit_code == 0 and not rbd.Trajectory.load(out).has_contacts
     # the tori demo records its contacts by default; --no-contacts turns that off
@@ -187,7 +192,8 @@ def test_gif_and_play(tmp_path):
     page = tmp_path / "again.html"
     replay = invoke("play", out, "--html", page)
     assert replay.exit_code == 0, replay.output
-    assert "thesis_example" in page.read_text()
+    assert "<title>thesis_example</title>" in page.read_text()
+    assert recording(page.read_text())["durationSeconds"] == pytest.approx(0.2)
     nothing = invoke("play", out)
     assert nothing.exit_code == 1 and "give --html and/or --gif" in nothing.output
     missing = invoke("play", tmp_path / "absent.npz", "--html", tmp_path / "x.html")
@@ -200,6 +206,77 @@ def test_gif_without_matplotlib_says_how_to_install_it(tmp_path, monkeypatch):
     assert result.exit_code == 1
     assert "needs matplotlib" in result.output and "pip install" in result.output
     assert files_in(tmp_path) == []
+
+
+def test_html_without_viser_says_how_to_install_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "viser", None)  # import viser -> ImportError
+    result = invoke("run", "-s", 0.1, "--out", tmp_path / "a.npz", "--html", tmp_path / "a.html")
+    assert result.exit_code == 1
+    assert "need viser" in result.output and "pip install viser" in result.output
+    assert files_in(tmp_path) == []
+    view = invoke("view", "projectile")
+    assert view.exit_code == 1 and "pip install viser" in view.output
+
+
+def test_view_of_a_scene_without_bodies_says_so(tmp_path):
+    empty = tmp_path / "empty.toml"
+    empty.write_text("[world]\ndt = 0.01\n")
+    result = invoke("view", empty)
+    assert result.exit_code == 1
+    assert result.output.strip() == (
+        "thesis-rbd: error: scene 'empty' has no bodies: there is nothing to view"
+    )
+
+
+def test_the_summary_keeps_compiling_apart_from_the_stages(monkeypatch):
+    """A kernel compiled during the run's first step: its time is reported as compiling, and
+    the stage table leaves that step out."""
+    import numba
+
+    from thesis_rbd.world import World
+
+    assert invoke("run", "projectile", "-s", 0.25, "--dt", 0.01).exit_code == 0  # all loaded
+    step = World.step
+    compiled = []
+
+    def step_that_compiles_once(world, n=1):
+        if not compiled:
+            fresh = numba.njit(lambda x: x + 1.0)  # a new function: numba must compile it
+            compiled.append(fresh(1.0))
+        step(world, n)
+
+    monkeypatch.setattr(World, "step", step_that_compiles_once)
+    result = invoke("run", "projectile", "-s", 0.25, "--dt", 0.01)
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0].startswith("thesis-rbd: compiling kernels, first run only")
+    assert lines[2].startswith("  compiling kernels, first run only: ")
+    assert lines[2].endswith("for 1 kernel (numba caches them for later runs)")
+    assert lines[3] == "  the stage times below leave out the 1 step during which kernels compiled"
+    integrate = next(line for line in lines if line.strip().startswith("integrate"))
+    assert integrate.split()[1] == "24"  # 25 steps, the one that compiled left out
+
+
+def test_warmup_runs_every_part_and_leaves_nothing_to_compile():
+    from thesis_rbd.compile_log import CompileLog
+    from thesis_rbd.warmup import _collision_queries, warmup_tasks
+
+    result = invoke("warmup")
+    assert result.exit_code == 0, result.output
+    for task in warmup_tasks():
+        assert f"  {task.name}: " in result.output
+    assert result.output.splitlines()[-1].startswith("warm-up: ") or "slowest kernels" in (
+        result.output
+    )
+    # what full runs reach beyond the warm-up's first second was compiled too: the tori touch
+    # only after 2.3 s, the dominoes topple one another until the end (the startup study checks
+    # every scene, each in a fresh process)
+    with CompileLog() as log:
+        for name in ("tori_demo", "dominoes"):
+            scene = rbd.scenes.get(name)
+            rbd.simulate(scene.build(), scene.seconds, record_contacts=True)
+        _collision_queries()
+    assert log.records == []
 
 
 # ---------------------------------------------------------------------- as a subprocess

@@ -1,19 +1,35 @@
-"""Playback: the HTML page is offline and self-contained, renders frames in headless Chromium;
-the GIF has one image per frame."""
+"""Playback: the HTML page is viser's offline client with the run embedded; in headless Chromium
+it draws the bodies with WebGL where a ray cast says they are (nearest surface first, so
+bodies that interpenetrate are drawn right), animates, and draws recorded contacts. The GIF has
+one image per frame."""
 
-import base64
-import json
 import re
-import shutil
-import subprocess
+import time
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.viz.html import playback_frames, render_html, write_html
+from tests.chromium import (
+    HeadlessChromium,
+    canvas_rect,
+    file_url,
+    hide_notifications,
+    require_chromium,
+)
+from tests.viser_recording import node_updates, node_values, recording, value_at
+from thesis_rbd.viz.frames import playback_frames
+from thesis_rbd.viz.html import render_html, write_html
+from thesis_rbd.viz.viser_scene import (
+    PALETTE,
+    camera_pose,
+    scene_bounds,
+    wxyz_from_xyzw,
+    xyzw_from_wxyz,
+)
 
-CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+VISER_FOV = np.radians(75.0)  # viser's default vertical field of view
 
 
 @pytest.fixture(scope="module")
@@ -22,11 +38,6 @@ def trajectory():
     run = rbd.simulate(scene.build(), 2.0)
     run.metadata.update(scene=scene.name, summary=scene.summary)
     return run
-
-
-def embedded_data(page):
-    match = re.search(r'<script type="application/json" id="trajectory-data">(.*?)</script>', page)
-    return json.loads(match.group(1))
 
 
 def test_playback_frames_thin_to_fps_and_keep_the_last():
@@ -40,84 +51,301 @@ def test_playback_frames_thin_to_fps_and_keep_the_last():
         playback_frames(times, 0)
 
 
+def test_quaternion_reorder_round_trips_and_agrees_with_viser():
+    import viser.transforms as vtf
+
+    xyzw = Rotation.random(20, random_state=3).as_quat()
+    np.testing.assert_array_equal(xyzw_from_wxyz(wxyz_from_xyzw(xyzw)), xyzw)
+    for q in xyzw:
+        np.testing.assert_allclose(
+            vtf.SO3(wxyz_from_xyzw(q)).as_matrix(), Rotation.from_quat(q).as_matrix(), atol=1e-12
+        )
+
+
 def test_page_is_self_contained_and_offline(trajectory):
     page = render_html(trajectory)
-    assert not re.search(r"https?:|//[a-z0-9.-]+\.[a-z]{2,}/|<link|\bsrc\s*=|@import|url\(", page)
-    assert "<canvas" in page and 'id="play"' in page and 'type="range"' in page
-    assert "<title>thesis_example</title>" in page
-
-
-def test_page_embeds_the_trajectory(trajectory):
-    data = embedded_data(render_html(trajectory, fps=30))
-    frames = playback_frames(trajectory.times, 30)
-    times = np.frombuffer(base64.b64decode(data["times"]), "<f8")
-    np.testing.assert_array_equal(times, trajectory.times[frames])
-    poses = np.frombuffer(base64.b64decode(data["poses"]), "<f4").reshape(len(frames), 2, 7)
-    np.testing.assert_allclose(poses[..., :3], trajectory.positions[frames], atol=1e-6)
-    np.testing.assert_allclose(poses[..., 3:], trajectory.orientations[frames], atol=1e-7)
-    faces = np.frombuffer(base64.b64decode(data["bodies"][1]["faces"]), "<u4").reshape(-1, 3)
-    np.testing.assert_array_equal(faces, trajectory.meshes[1].faces)
-    assert [b["name"] for b in data["bodies"]] == ["box1", "box2"]
-
-
-def test_script_closing_tag_in_a_name_cannot_break_the_page(trajectory):
-    trajectory.names[0] = "</script><b>x"
-    try:
-        page = render_html(trajectory)
-    finally:
-        trajectory.names[0] = "box1"
-    assert page.count("</script>") == 2  # the data block's and the player's
-    assert embedded_data(page)["bodies"][0]["name"] == "</script><b>x"
-
-
-def find_chromium():
-    return next((path for name in CHROMIUM_NAMES if (path := shutil.which(name))), None)
-
-
-def test_page_renders_frames_in_headless_chromium(trajectory, tmp_path):
-    browser = find_chromium()
-    if browser is None:
-        pytest.skip("headless Chromium not found: apt-get install chromium to run this check")
-    report, dom = chromium_self_test(browser, write_html(trajectory, tmp_path / "play.html"))
-    assert report["bodies"] == 2 and report["frames"] == len(playback_frames(trajectory.times, 60))
-    images = report["images"]
-    assert [image["frame"] for image in images] == [0, report["frames"] // 2, report["frames"] - 1]
-    for image in images:
-        assert image["painted"] > 2000, image  # the boxes cover thousands of pixels
-    # the pushed box moves and turns: the first and last images differ
-    assert images[0]["checksum"] != images[-1]["checksum"]
-    # the playback loop kept drawing after the self-test (4 = first frame + 3 self-test draws)
-    rendered = int(re.search(r'data-frames-rendered="(\d+)"', dom).group(1))
-    assert rendered > 4
-
-
-def chromium_self_test(browser, page):
-    """Open ``page`` with ``#selftest`` in headless Chromium; return its report and the DOM."""
-    profile = page.parent / "profile"
-    result = subprocess.run(
-        [
-            browser,
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--no-first-run",
-            f"--user-data-dir={profile}",
-            "--window-size=800,600",
-            "--virtual-time-budget=3000",
-            "--dump-dom",
-            f"{page.resolve().as_uri()}#selftest",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=90,
+    # the only URL is the SVG namespace name inside viser's script; every link is inline data
+    assert set(re_urls(page)) <= {"http://www.w3.org/2000/svg"}
+    assert not any(
+        not value.startswith(("data:", "#")) for value in re_attribute_values(page, ("src", "href"))
     )
-    dom = result.stdout
-    match = re.search(r'<pre id="selftest-result">(.*?)</pre>', dom)
-    assert match, f"no self-test report in the DOM; stderr: {result.stderr[-2000:]}"
-    return json.loads(match.group(1)), dom
+    assert "<title>thesis_example</title>" in page
+    assert recording(page)["durationSeconds"] == pytest.approx(2.0)
+
+
+def re_urls(page):
+    return re.findall(r"https?://[^\s\"'`)<>]+", page)
+
+
+def re_attribute_values(page, names):
+    alternatives = "|".join(names)
+    return re.findall(rf"<[a-z]+[^>]*?\b(?:{alternatives})\s*=\s*\"([^\"]*)\"", page)
+
+
+def test_page_embeds_every_kept_frame_of_the_trajectory(trajectory):
+    record = recording(render_html(trajectory, fps=30))
+    frames = playback_frames(trajectory.times, 30)
+    for body in range(trajectory.body_count):
+        node = f"/bodies/{body}_{trajectory.names[body]}"
+        # viser sends a pose only when it changes from its default, (0, 0, 0) and identity
+        positions = [(0.0, [0.0, 0.0, 0.0])] + node_values(
+            record, "SetPositionMessage", node, "position"
+        )
+        orientations = [(0.0, [1.0, 0.0, 0.0, 0.0])] + node_values(
+            record, "SetOrientationMessage", node, "wxyz"
+        )
+        for frame in frames:
+            t = trajectory.times[frame] - trajectory.times[0]
+            np.testing.assert_allclose(
+                value_at(positions, t), trajectory.positions[frame, body], atol=1e-9
+            )
+            np.testing.assert_allclose(
+                xyzw_from_wxyz(np.array(value_at(orientations, t))),
+                trajectory.orientations[frame, body],
+                atol=1e-9,
+            )
+        mesh = next(
+            m["props"] for _, m in record["messages"] if m["type"] == "MeshMessage"
+            and m["name"] == node
+        )  # fmt: skip
+        np.testing.assert_array_equal(mesh["faces"].reshape(-1, 3), trajectory.meshes[body].faces)
+        np.testing.assert_allclose(
+            mesh["vertices"].reshape(-1, 3),
+            trajectory.meshes[body].vertices - trajectory.centers_of_mass[body],
+            atol=1e-6,
+        )
+
+
+def test_a_script_closing_tag_in_the_title_cannot_break_the_page(trajectory):
+    page = render_html(trajectory, title="</script><b>x")
+    assert "</script><b>x" not in page
+    assert "&lt;/script&gt;&lt;b&gt;x" in page
+
+
+# ---------------------------------------------------------------------- recorded contacts
+CONTACT_POINTS = np.array([[0.0, -1.4, 1.2], [0.8, -1.4, 1.2]])  # in the air, in front of A
+
+
+@pytest.fixture(scope="module")
+def showcase():
+    """Three bodies seen by the camera, no simulation needed:
+
+    A, a unit cube at the origin, pierced by B, a bar turned 30 degrees about z (they
+    interpenetrate: which one shows at a pixel is decided by depth); C, a cube moving from
+    x = -2 to x = 2 over 4 s at y = 2.5. Two contacts float in front of A at every frame.
+    """
+    times = np.linspace(0.0, 4.0, 241)
+    T = len(times)
+    positions = np.zeros((T, 3, 3))
+    positions[:, 1] = (0.3, 0.0, 0.1)
+    positions[:, 2, 0] = np.linspace(-2.0, 2.0, T)
+    positions[:, 2, 1] = 2.5
+    orientations = np.zeros((T, 3, 4))
+    orientations[..., 3] = 1.0
+    orientations[:, 1] = Rotation.from_euler("z", 30, degrees=True).as_quat()
+    meshes = [rbd.shapes.box((1, 1, 1)), rbd.shapes.box((1.6, 0.4, 0.4)), rbd.shapes.box((1, 1, 1))]
+    contacts = {
+        "points": np.tile(CONTACT_POINTS, (T, 1)),
+        "normals": np.tile([[0.0, 0.0, 1.0]], (2 * T, 1)),
+        "bodies": np.tile([[0, 1]], (2 * T, 1)),
+        "offsets": np.arange(T + 1) * 2,
+    }
+    return rbd.Trajectory(
+        times, positions, orientations, ["A", "B", "C"], meshes, np.zeros((3, 3)),
+        metadata={"scene": "showcase"}, contacts=contacts,
+    )  # fmt: skip
+
+
+def test_page_embeds_the_contacts_of_the_frames_it_keeps():
+    scene = rbd.scenes.get("tori_demo")
+    world = scene.build()
+    world.step(150)  # 2.5 s at 1/60 s: B cuts through A
+    run = rbd.simulate(world, 0.2, record_contacts=True)
+    record = recording(render_html(run, fps=30))
+    frames = playback_frames(run.times, 30)
+    points = [(0.0, None)] + node_updates(record, "/contacts/points", "points")
+    normals = [(0.0, None)] + node_updates(record, "/contacts/normals", "points")
+    shown = [(0.0, False)] + node_values(
+        record, "SetSceneNodeVisibilityMessage", "/contacts/points", "visible"
+    )
+    for frame in frames[1:]:
+        t = run.times[frame] - run.times[0]
+        recorded = run.contacts(int(frame))
+        assert len(recorded["points"]) > 0 and value_at(shown, t)
+        np.testing.assert_allclose(
+            value_at(points, t).reshape(-1, 3), recorded["points"], atol=1e-6
+        )
+        ticks = value_at(normals, t).reshape(-1, 2, 3)
+        np.testing.assert_allclose(ticks[:, 0], recorded["points"], atol=1e-6)
+        direction = ticks[:, 1] - ticks[:, 0]
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+        np.testing.assert_allclose(direction, recorded["normals"], atol=1e-5)
+
+
+def test_a_contact_between_kept_frames_shows_at_the_next_kept_frame():
+    """A one-step impact (frame 2) thinned away: kept frame 4 shows it, frame 8 does not."""
+    T, impact = 9, np.array([[0.5, 0.0, -0.5]])
+    counts = np.array([0, 0, 1, 0, 0, 0, 0, 0, 0])
+    run = rbd.Trajectory(
+        np.arange(T) / 10, np.zeros((T, 1, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (T, 1, 1)), ["a"],
+        [rbd.shapes.box((1, 1, 1))], np.zeros((1, 3)),
+        contacts={"points": impact, "normals": [[0.0, 0.0, 1.0]], "bodies": [[0, 0]],
+                  "offsets": np.concatenate([[0], np.cumsum(counts)])},
+    )  # fmt: skip
+    record = recording(render_html(run, fps=2.5))  # keeps frames 0, 4 and 8
+    shown = [(0.0, False)] + node_values(
+        record, "SetSceneNodeVisibilityMessage", "/contacts/points", "visible"
+    )
+    points = node_updates(record, "/contacts/points", "points")
+    assert [value_at(shown, t) for t in (0.0, 0.4, 0.8)] == [False, True, False]
+    np.testing.assert_allclose(value_at(points, 0.4).reshape(-1, 3), impact)
+
+
+def test_page_without_contacts_never_shows_them(trajectory):
+    record = recording(render_html(trajectory))
+    assert not any(
+        visible
+        for _, visible in node_values(
+            record, "SetSceneNodeVisibilityMessage", "/contacts/points", "visible"
+        )
+    )
+
+
+# ---------------------------------------------------------------------- in a browser
+def camera_rays(rect, lower, upper, pixels):
+    """World rays through (k, 2) pixel (x, y) of the canvas, as viser's camera sees them."""
+    position, look_at = camera_pose(lower, upper, VISER_FOV)
+    forward = (look_at - position) / np.linalg.norm(look_at - position)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    width, height = rect["width"], rect["height"]
+    half = np.tan(0.5 * VISER_FOV)
+    x = (2.0 * (pixels[:, 0] + 0.5 - rect["left"]) / width - 1.0) * half * width / height
+    y = (1.0 - 2.0 * (pixels[:, 1] + 0.5 - rect["top"]) / height) * half
+    directions = forward + x[:, None] * right + y[:, None] * up
+    return position, directions / np.linalg.norm(directions, axis=1, keepdims=True)
+
+
+def ray_box_distance(origin, directions, center, rotation, extents):
+    """(k,) distance along each ray to a box (slab test; inf where it misses)."""
+    local_origin = rotation.T @ (origin - center)
+    local = directions @ rotation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (-0.5 * extents - local_origin) / local
+        t2 = (0.5 * extents - local_origin) / local
+    near = np.nanmax(np.minimum(t1, t2), axis=1)
+    far = np.nanmin(np.maximum(t1, t2), axis=1)
+    return np.where((near <= far) & (far > 0), near, np.inf)
+
+
+def project(rect, lower, upper, points):
+    """(k, 2) canvas pixels of world points."""
+    position, look_at = camera_pose(lower, upper, VISER_FOV)
+    forward = (look_at - position) / np.linalg.norm(look_at - position)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    relative = np.asarray(points) - position
+    depth = relative @ forward
+    half = np.tan(0.5 * VISER_FOV)
+    x = relative @ right / depth / (half * rect["width"] / rect["height"])
+    y = relative @ up / depth / half
+    return np.stack(
+        [
+            rect["left"] + 0.5 * (x + 1.0) * rect["width"],
+            rect["top"] + 0.5 * (1.0 - y) * rect["height"],
+        ],
+        axis=1,
+    )
+
+
+def hue_class(rgb):
+    """Which palette body a pixel shows by its hue: 0 orange-red, 1 blue, 2 green, -1 none."""
+    r, g, b = (rgb[..., k].astype(int) for k in range(3))
+    return np.select(
+        [(r - b > 50) & (r - g > 30), (b - r > 50) & (b - g > 30), (g - r > 30) & (g - b > 30)],
+        [0, 1, 2],
+        -1,
+    )
+
+
+def paused_at(browser):
+    """Pause the page's playback (space bar) and return the time it shows."""
+    browser.call("Input.dispatchKeyEvent", type="keyDown", key=" ", code="Space", keyCode=32)
+    browser.call("Input.dispatchKeyEvent", type="keyUp", key=" ", code="Space", keyCode=32)
+    time.sleep(0.3)
+    return float(browser.evaluate("document.querySelector('input').value"))
+
+
+def test_page_draws_depth_correct_animated_bodies_and_contacts_in_chromium(showcase, tmp_path):
+    require_chromium()
+    assert [tuple(PALETTE[k]) for k in range(3)] == [(214, 96, 61), (61, 126, 214), (92, 170, 90)]
+    page = write_html(showcase, tmp_path / "play.html")
+    lower, upper = scene_bounds(
+        showcase.meshes, showcase.centers_of_mass, showcase.positions, showcase.orientations
+    )
+    with HeadlessChromium() as browser:
+        browser.open(file_url(page))
+        rect = canvas_rect(browser)
+        hide_notifications(browser)
+        # it plays: the time shown advances
+        browser.wait_for("parseFloat(document.querySelector('input').value) > 0.3", 90)
+        first_time = paused_at(browser)
+        time.sleep(1.0)  # paused: the picture settles (viser fades nodes in)
+        first = browser.screenshot()
+        browser.call("Input.dispatchKeyEvent", type="keyDown", key=" ", code="Space", keyCode=32)
+        browser.call("Input.dispatchKeyEvent", type="keyUp", key=" ", code="Space", keyCode=32)
+        browser.wait_for(
+            f"Math.abs(parseFloat(document.querySelector('input').value) - {first_time}) > 1.2",
+            60,
+        )
+        second_time = paused_at(browser)
+        time.sleep(1.0)
+        second = browser.screenshot()
+
+    # 1. depth: at every 6th pixel, the body a ray cast meets first is the one drawn
+    ys, xs = np.mgrid[0 : int(rect["height"]) : 6, 0 : int(rect["width"]) : 6]
+    pixels = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(float)
+    origin, directions = camera_rays(rect, lower, upper, pixels)
+    extents = [np.array([1.0, 1.0, 1.0]), np.array([1.6, 0.4, 0.4])]
+    distances = np.stack(
+        [
+            ray_box_distance(
+                origin,
+                directions,
+                showcase.positions[0, body],
+                Rotation.from_quat(showcase.orientations[0, body]).as_matrix(),
+                extents[body],
+            )
+            for body in (0, 1)
+        ]
+    )
+    expected = np.where(np.isfinite(distances.min(axis=0)), distances.argmin(axis=0), -1)
+    drawn = hue_class(first[pixels[:, 1].astype(int), pixels[:, 0].astype(int)])
+    on_a_or_b = expected >= 0
+    assert np.count_nonzero(expected == 1) > 50 and np.count_nonzero(expected == 0) > 150
+    # both bodies are drawn where they are: A and B each show where nearest (edges aside)
+    agree = np.mean(drawn[on_a_or_b] == expected[on_a_or_b])
+    assert agree > 0.97, agree
+    assert np.mean(np.isin(drawn[~on_a_or_b], (0, 1))) < 0.01  # and nowhere else
+
+    # 2. animation: C is drawn where it is at each paused time, and the pictures differ
+    for picture, shown_time in ((first, first_time), (second, second_time)):
+        center_c = np.array([-2.0 + shown_time, 2.5, 0.0])
+        expected_pixel = project(rect, lower, upper, [center_c])[0]
+        green = np.argwhere(hue_class(picture) == 2)[:, ::-1]
+        assert len(green) > 200
+        # the time box shows 0.1 s: C is within 0.05 m of where that time puts it
+        assert np.linalg.norm(green.mean(axis=0) - expected_pixel) < 25
+    assert abs(first_time - second_time) > 1.0
+    assert np.count_nonzero(np.any(first != second, axis=2)) > 1000
+
+    # 3. contacts: red dots at the recorded points, in the air where no body is
+    for x, y in project(rect, lower, upper, CONTACT_POINTS).round().astype(int):
+        patch = first[y - 2 : y + 3, x - 2 : x + 3].astype(int)
+        red = (patch[..., 0] > 180) & (patch[..., 1] < 90) & (patch[..., 2] < 120)
+        assert np.count_nonzero(red) >= 9, patch
 
 
 def test_gif_has_one_image_per_frame(trajectory, tmp_path):
@@ -140,67 +368,18 @@ def test_gif_has_one_image_per_frame(trajectory, tmp_path):
         assert image.n_frames == len(playback_frames(short.times, 10)) == 6
 
 
-# ---------------------------------------------------------------------- recorded contacts
-@pytest.fixture(scope="module")
-def tori_run():
-    """The tori demo from x = -0.5 to -0.3: B cuts through A, with contacts every frame."""
-    scene = rbd.scenes.get("tori_demo")
-    world = scene.build()
-    world.step(150)  # 2.5 s at 1/60 s: B's centre at x = -0.5
-    run = rbd.simulate(world, 0.2, record_contacts=True)
-    run.metadata.update(scene=scene.name)
-    return run
-
-
-def test_page_embeds_the_contacts_of_the_frames_it_keeps(tori_run):
-    data = embedded_data(render_html(tori_run, fps=30))
-    frames = playback_frames(tori_run.times, 30)
-    offsets = np.frombuffer(base64.b64decode(data["contacts"]["offsets"]), "<u4")
-    points = np.frombuffer(base64.b64decode(data["contacts"]["points"]), "<f4").reshape(-1, 3)
-    normals = np.frombuffer(base64.b64decode(data["contacts"]["normals"]), "<f4").reshape(-1, 3)
-    assert len(offsets) == len(frames) + 1 and offsets[-1] == len(points) == len(normals)
-    for k, frame in enumerate(frames):
-        recorded = tori_run.contacts(int(frame))
-        assert len(recorded["points"]) > 0
-        rows = slice(offsets[k], offsets[k + 1])
-        np.testing.assert_allclose(points[rows], recorded["points"], atol=1e-6)
-        np.testing.assert_allclose(normals[rows], recorded["normals"], atol=1e-6)
-
-
-def test_page_without_contacts_has_no_contact_data(trajectory):
-    assert "contacts" not in embedded_data(render_html(trajectory))
-
-
-def test_page_draws_the_contacts_in_headless_chromium(tori_run, tmp_path):
-    browser = find_chromium()
-    if browser is None:
-        pytest.skip("headless Chromium not found: apt-get install chromium to run this check")
-    report, _ = chromium_self_test(browser, write_html(tori_run, tmp_path / "play.html"))
-    images = report["images"]
-    assert len(images) == 4  # first, middle, last and the frame with the most contacts
-    busiest = images[-1]
-    assert busiest["contacts"] == tori_run.contact_counts().max() > 0
-    # every contact lies in front of the camera, so every one is drawn
-    assert all(image["contactsDrawn"] == image["contacts"] > 0 for image in images)
-
-
-def test_gif_draws_the_contacts(tori_run, tmp_path):
+def test_gif_draws_the_contacts(showcase, tmp_path):
     pytest.importorskip("matplotlib")
     from PIL import Image
 
     from thesis_rbd.viz.gif import write_gif
 
-    with_dots = write_gif(tori_run, tmp_path / "dots.gif", fps=10, size_pixels=160)
     without = rbd.Trajectory(
-        tori_run.times,
-        tori_run.positions,
-        tori_run.orientations,
-        tori_run.names,
-        tori_run.meshes,
-        tori_run.centers_of_mass,
-        tori_run.static,
-    )
-    plain = write_gif(without, tmp_path / "plain.gif", fps=10, size_pixels=160)
+        showcase.times, showcase.positions, showcase.orientations,
+        showcase.names, showcase.meshes, showcase.centers_of_mass,
+    )  # fmt: skip
+    with_dots = write_gif(showcase, tmp_path / "dots.gif", fps=2, size_pixels=160)
+    plain = write_gif(without, tmp_path / "plain.gif", fps=2, size_pixels=160)
 
     def red_pixels(path):
         with Image.open(path) as image:

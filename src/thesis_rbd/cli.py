@@ -1,15 +1,22 @@
-"""The ``thesis-rbd`` command line: run scenes, list the built-ins, replay saved runs.
+"""The ``thesis-rbd`` command line: run scenes, view them live, list the built-ins, replay saved
+runs, compile the kernels ahead.
 
     thesis-rbd run [SCENE] [--seconds S] [--dt DT] [--integrator NAME] [--record-every K]
                    [--contacts | --no-contacts]
                    [--out run.npz] [--html play.html] [--gif play.gif] [--quiet | -v]
+    thesis-rbd view [SCENE] [--port P] [--host H] [--paused]
     thesis-rbd scenes
     thesis-rbd play RUN.npz [--html play.html] [--gif play.gif]
+    thesis-rbd warmup [--quiet]
 
 SCENE is a scene file (TOML) or the name of a built-in scene (``thesis-rbd scenes``); without
 one, the default built-in runs. Every input is checked before the run starts: a fault exits
 with status 1 and one message on stderr, no traceback, and no output file. Outputs are written
 together at the end, each atomically, so a run leaves all of them or none.
+
+numba compiles the kernels on their first use, which takes minutes once and is cached for
+every later run: while it compiles, the commands say so on stderr (a spinner on a terminal),
+and ``run`` reports the time spent compiling apart from the time of the stages.
 
 The validation campaign is not a command of the installed package: it lives beside the
 sources in a checkout and runs there as ``python -m validation``.
@@ -28,6 +35,9 @@ import typer
 
 from thesis_rbd import scenes as builtin_scenes
 from thesis_rbd._atomic import atomic_path, check_writable_folder
+from thesis_rbd._run_status import RunStatus
+from thesis_rbd._stage_ledger import StageLedger
+from thesis_rbd.compile_log import CompileLog
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.scene import Scene, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
@@ -36,17 +46,17 @@ __all__ = ["app", "resolve_scene"]
 
 app = typer.Typer(
     name="thesis-rbd",
-    help="Rigid-body simulation after the JAOC thesis: run scenes and play them back.",
+    help="Rigid-body simulation after the JAOC thesis: run scenes, view them live, play them back.",
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
 )
 
-PROGRESS_AFTER_SECONDS = 1.0
-_HTML_HELP = "Write an offline playback page (.html)."
+_HTML_HELP = "Write an offline playback page (.html; drawn by viser)."
 _GIF_HELP = "Write an animated GIF (needs matplotlib)."
 _FPS_HELP = "GIF frames per simulated second."
 _QUIET_HELP = "Print nothing but errors."
+WARMUP_SLOWEST = 10
 
 
 class InputError(Exception):
@@ -80,49 +90,6 @@ def _reported_errors():
         raise _fail(str(exc)) from None
 
 
-class _ProgressBar:
-    """A rich progress bar on stderr that appears only once a run has lasted a second.
-
-    Called as ``progress(steps_done, steps_total)`` by :func:`simulate`; stays silent when
-    stderr is not a terminal or the run is quick.
-    """
-
-    def __init__(self, label: str, enabled: bool):
-        self.label, self.enabled = label, enabled
-        self.start = perf_counter()
-        self.bar = None
-        self.task = None
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        if self.bar is None:
-            if perf_counter() - self.start < PROGRESS_AFTER_SECONDS:
-                return
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-            console = Console(stderr=True)
-            if not console.is_terminal:
-                self.enabled = False
-                return
-            self.bar = Progress(
-                TextColumn("{task.description}"),
-                BarColumn(),
-                TextColumn("{task.completed}/{task.total} steps"),
-                TimeRemainingColumn(),
-                console=console,
-                transient=True,
-            )
-            self.bar.start()
-            self.task = self.bar.add_task(self.label, total=total)
-        self.bar.update(self.task, completed=done)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
-
 def _check_outputs(out: Path | None, html: Path | None, gif: Path | None) -> list[Path]:
     outputs = [path for path in (out, html, gif) if path is not None]
     for path in outputs:
@@ -134,6 +101,10 @@ def _check_outputs(out: Path | None, html: Path | None, gif: Path | None) -> lis
         from thesis_rbd.viz.gif import require_matplotlib
 
         require_matplotlib()
+    if html is not None:
+        from thesis_rbd.viz.viser_scene import require_viser
+
+        require_viser()
     return outputs
 
 
@@ -179,22 +150,43 @@ def _describe_scene(scene: Scene) -> str:
     return "\n".join(lines)
 
 
-def _summary(trajectory: Trajectory, wall_seconds: float) -> str:
+def _summary(
+    trajectory: Trajectory, wall_seconds: float, log: CompileLog, ledger: StageLedger
+) -> str:
+    """The run in a line, the time spent compiling kernels if any, and a line per stage.
+
+    The stage table leaves out the frames during which kernels compiled (:class:`StageLedger`),
+    so that a first run shows what the stages cost, not what compiling them cost.
+    """
     meta = trajectory.metadata
     n = trajectory.body_count
     lines = [
         f"{meta.get('scene', 'run')}: {n} {'body' if n == 1 else 'bodies'}, "
         f"{trajectory.times[-1] - trajectory.times[0]:g} s simulated in {meta['steps']} steps "
-        f"of {meta['dt']:.6g} s ({meta['integrator']}), {wall_seconds:.3f} s wall",
-        f"  {'stage':<14}{'calls':>8}{'seconds':>11}{'share':>8}",
+        f"of {meta['dt']:.6g} s ({meta['integrator']}), {wall_seconds:.3f} s wall"
     ]
-    profile = {stage: entry for stage, entry in meta["profile"].items() if entry["calls"]}
+    profile = ledger.without_compiling(meta["profile"])
+    staged_wall = wall_seconds
+    if log.records:
+        staged_wall = max(wall_seconds - ledger.compiling_wall, 0.0)
+        lines.append(
+            f"  compiling kernels, first run only: {log.seconds:.3f} s for "
+            f"{_kernels(log.kernel_count)} (numba caches them for later runs)"
+        )
+        if ledger.compiling_steps:
+            steps = ledger.compiling_steps
+            lines.append(
+                f"  the stage times below leave out the {steps} step{'' if steps == 1 else 's'} "
+                "during which kernels compiled"
+            )
+    lines.append(f"  {'stage':<14}{'calls':>8}{'seconds':>11}{'share':>8}")
+    profile = {stage: entry for stage, entry in profile.items() if entry["calls"]}
     staged = sum(entry["seconds"] for entry in profile.values())
-    other = max(wall_seconds - staged, 0.0)
+    other = max(staged_wall - staged, 0.0)
     for stage, entry in profile.items():
-        share = entry["seconds"] / wall_seconds if wall_seconds > 0 else 0.0
+        share = entry["seconds"] / staged_wall if staged_wall > 0 else 0.0
         lines.append(f"  {stage:<14}{entry['calls']:>8}{entry['seconds']:>11.4f}{share:>8.1%}")
-    share = other / wall_seconds if wall_seconds > 0 else 0.0
+    share = other / staged_wall if staged_wall > 0 else 0.0
     lines.append(f"  {'(other)':<14}{'':>8}{other:>11.4f}{share:>8.1%}")
     return "\n".join(lines)
 
@@ -262,36 +254,161 @@ def run(
         if overrides:
             loaded = loaded.with_world(**overrides)
         _check_outputs(out, html, gif)
-        world = loaded.build()
-        if verbose and not quiet:
-            typer.echo(_describe_scene(loaded))
-            typer.echo(f"  stages: {' -> '.join(world.stages) or '(none: nothing moves)'}")
-
-        duration = loaded.seconds if seconds is None else seconds
-        progress = _ProgressBar(loaded.name, enabled=not quiet)
-        start = perf_counter()
+        status = RunStatus(loaded.name, enabled=not quiet)
         try:
-            trajectory = simulate(
-                world,
-                duration,
-                record_every=record_every,
-                progress=progress,
-                record_contacts=loaded.record_contacts if contacts is None else contacts,
-            )
+            with CompileLog(
+                on_start=status.compiling, on_end=lambda _record: status.compiling(None)
+            ) as log:
+                start = perf_counter()
+                world = loaded.build()
+                if verbose and not quiet:
+                    status.close()
+                    typer.echo(_describe_scene(loaded))
+                    typer.echo(f"  stages: {' -> '.join(world.stages) or '(none: nothing moves)'}")
+                ledger = StageLedger(world, log)
+                if log.records:  # compiled while building: set the build aside as well
+                    ledger.compiling_wall += perf_counter() - start
+
+                def progress(done: int, total: int) -> None:
+                    ledger(done, total)
+                    status(done, total)
+
+                trajectory = simulate(
+                    world,
+                    loaded.seconds if seconds is None else seconds,
+                    record_every=record_every,
+                    progress=progress,
+                    record_contacts=loaded.record_contacts if contacts is None else contacts,
+                )
+                wall = perf_counter() - start
         finally:
-            progress.close()
-        wall = perf_counter() - start
+            status.close()
         trajectory.metadata.update(scene=loaded.name, summary=loaded.summary)
         _write_outputs(trajectory, out, html, gif, fps, loaded.name)
 
     if not quiet:
-        typer.echo(_summary(trajectory, wall))
+        typer.echo(_summary(trajectory, wall, log, ledger))
         written = [str(path) for path in (out, html, gif) if path is not None]
         if written:
             recorded = (
                 f", {len(trajectory.contact_points)} contacts" if trajectory.has_contacts else ""
             )
             typer.echo(f"wrote {', '.join(written)} ({len(trajectory)} frames{recorded})")
+
+
+@app.command()
+def view(
+    scene: Annotated[
+        str,
+        typer.Argument(help="Scene file (.toml) or built-in scene name (see `thesis-rbd scenes`)."),
+    ] = builtin_scenes.DEFAULT,
+    port: Annotated[
+        int,
+        typer.Option(
+            "--port", "-p", help="Port to serve on (the next free one if taken).", min=0, max=65535
+        ),
+    ] = 8080,
+    host: Annotated[
+        str,
+        typer.Option(
+            "--host", help="Interface to listen on: 127.0.0.1 (this machine) or 0.0.0.0 (all)."
+        ),
+    ] = "127.0.0.1",
+    paused: Annotated[
+        bool, typer.Option("--paused", help="Start paused (press Play on the page).")
+    ] = False,
+) -> None:
+    """Simulate a scene live in the browser: play, pause, step, reset, speed, contacts, timings.
+
+    Open the address it prints; click a body to see its state. Ctrl-C stops it.
+    """
+    with _reported_errors():
+        from thesis_rbd.viz.viser_scene import require_viser
+
+        require_viser()
+        loaded = resolve_scene(scene)
+    from thesis_rbd.viz.live import LiveView
+
+    status = RunStatus(loaded.name)
+    live = None
+    try:
+        with _reported_errors():
+            live = LiveView(
+                loaded, host=host, port=port, playing=not paused, on_compile=status.compiling
+            )
+        typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
+        live.run()
+    except KeyboardInterrupt:
+        pass  # Ctrl-C is how the view is meant to end
+    finally:
+        status.close()
+        if live is not None:
+            live.close()
+    if live is not None:
+        typer.echo(
+            f"thesis-rbd view: stopped at t = {live.world.time:.3f} s after {live.steps} steps"
+        )
+
+
+@app.command()
+def warmup(
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help=_QUIET_HELP)] = False,
+) -> None:
+    """Compile every kernel ahead: minutes once, then every run starts in a second or two.
+
+    Runs each built-in scene for a simulated second and the collision queries once; numba keeps
+    what it compiles in its cache. Reports each part's time and the slowest kernels.
+    """
+    from thesis_rbd.warmup import slowest_kernels, warm_up, warmup_tasks
+
+    tasks = warmup_tasks()
+    status = RunStatus("warm-up", enabled=not quiet, unit="parts", after_seconds=0.0)
+    done = 0
+
+    def started(task) -> None:
+        status(done, len(tasks), label=task.name)
+
+    def finished(result) -> None:
+        nonlocal done
+        done += 1
+        status(done, len(tasks))
+        if not quiet and not status.terminal:
+            typer.echo(f"  {result.name}: {result.seconds:.2f} s, {_compiled(result.compiles)}")
+
+    start = perf_counter()
+    try:
+        results = warm_up(tasks, on_start=started, on_compile=status.compiling, on_end=finished)
+    finally:
+        status.close()
+    if quiet:
+        return
+    compiles = [record for result in results for record in result.compiles]
+    if status.terminal:
+        for result in results:
+            typer.echo(f"  {result.name}: {result.seconds:.2f} s, {_compiled(result.compiles)}")
+    typer.echo(
+        f"warm-up: {perf_counter() - start:.1f} s, {_compiled(compiles)}"
+        + (
+            f" in {sum(r.compile_seconds for r in results):.1f} s"
+            if compiles
+            else " (all were cached already)"
+        )
+    )
+    if compiles:
+        typer.echo(f"  {'slowest kernels to compile (own time)':<64}{'seconds':>9}")
+        for name, signatures, seconds in slowest_kernels(compiles)[:WARMUP_SLOWEST]:
+            label = name.removeprefix("thesis_rbd.") + (
+                f" ({signatures} signatures)" if signatures > 1 else ""
+            )
+            typer.echo(f"  {label:<64}{seconds:>9.2f}")
+
+
+def _kernels(count: int) -> str:
+    return f"{count} kernel{'' if count == 1 else 's'}"
+
+
+def _compiled(records) -> str:
+    return f"compiled {_kernels(len({record.name for record in records}))}"
 
 
 @app.command()

@@ -45,6 +45,7 @@ from validation.studies import (
     query_costs,
     sap_benchmarks,
     stability_suite,
+    startup,
 )
 
 __all__ = ["STUDIES", "get_study"]
@@ -70,6 +71,7 @@ STUDIES: dict[str, ModuleType] = {
         query_benchmarks,
         sap_benchmarks,
         contact_benchmarks,
+        startup,
     )
 }
 

@@ -1,4 +1,4 @@
-"""Playback of trajectories: a self-contained HTML page and an animated GIF."""
+"""Seeing runs: the live view in the browser, offline playback pages, and animated GIFs."""
 
 from thesis_rbd.viz.gif import write_gif
 from thesis_rbd.viz.html import render_html, write_html

@@ -14,7 +14,7 @@ import numpy as np
 
 from thesis_rbd._atomic import atomic_path
 from thesis_rbd.trajectory import Trajectory
-from thesis_rbd.viz.html import playback_frames
+from thesis_rbd.viz.frames import playback_frames
 
 __all__ = ["require_matplotlib", "write_gif"]
 

@@ -1,0 +1,47 @@
+"""One start of the command line, as a new user meets it, with numba's compiles recorded.
+
+    python -m validation.startup_probe SCENE SECONDS RECORD.json
+
+runs ``thesis-rbd run SCENE --seconds SECONDS --quiet`` in this process (the console script's
+own entry point, :data:`thesis_rbd.cli.app`) under a :class:`thesis_rbd.compile_log.CompileLog`,
+and writes the compiles to RECORD.json. The caller times the whole process, interpreter start
+included; :mod:`validation.studies.startup` starts it in a fresh process per measurement.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from time import perf_counter
+
+
+def main(argv: list[str]) -> int:
+    scene, seconds, record_path = argv
+    started = perf_counter()
+    from thesis_rbd.cli import app
+    from thesis_rbd.compile_log import CompileLog
+
+    imported = perf_counter() - started
+    with CompileLog() as log:
+        try:
+            app(["run", scene, "--seconds", seconds, "--quiet"], prog_name="thesis-rbd")
+        except SystemExit as finished:
+            status = finished.code or 0
+        else:
+            status = 0
+    record = {
+        "status": status,
+        "import_seconds": imported,
+        "in_process_seconds": perf_counter() - started,
+        "compile_seconds": log.seconds,
+        "compile_cpu_seconds": log.cpu_seconds,
+        "kernels_compiled": log.kernel_count,
+        "compiles": [entry.to_json() for entry in log.records],
+    }
+    Path(record_path).write_text(json.dumps(record), encoding="utf-8")
+    return int(status)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
