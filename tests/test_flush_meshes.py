@@ -19,7 +19,8 @@ from reference_exact import exact_pairs, kernel_frame_corners, tri_tri_exact
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.collide import _corner_moved, _relative_pose
+from thesis_rbd.collision.collide import _relative_pose
+from thesis_rbd.collision.packed import corner_moved, layout
 
 
 def extruded(polygon, height, fan_from=0):
@@ -161,8 +162,11 @@ def test_oracle_sees_the_kernels_coordinates_bitwise():
     Rab, tab = _relative_pose(T_a, T_b)
     M = tuple(float(x) for x in Rab.ravel())
     t = (float(tab[0]), float(tab[1]), float(tab[2]))
-    V, F = mesh.vertices, mesh.faces
-    ours = np.array([[_corner_moved(V, F, f, k, M, t) for k in range(3)] for f in range(len(F))])
+    P = rbd.OBBTree(mesh)._packed
+    L = layout(P)
+    ours = np.array(
+        [[corner_moved(P, L, f, k, M, t) for k in range(3)] for f in range(len(mesh.faces))]
+    )
     assert np.array_equal(ours, kernel_frame_corners(mesh, T_a, T_b))
 
 
