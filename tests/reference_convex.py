@@ -187,6 +187,9 @@ def contact_polygon(points_a, points_b, normal):
     if (halfplanes[vanishing, 2] > 0).any():
         return np.zeros((0, 3)), ambiguous, np.zeros(0), -opposed[order[0]]
     halfplanes, norms = halfplanes[~vanishing], norms[~vanishing]
+    # unit normals: qhull judges a feasible point by its distance, which a short normal hides
+    halfplanes = halfplanes / norms[:, None]
+    norms = np.ones(len(halfplanes))
     # an interior point: Chebyshev centre by LP
     res = linprog(
         [0, 0, -1],

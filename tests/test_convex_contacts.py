@@ -80,7 +80,7 @@ class Pair:
         cache = empty_cache() if cache is None else cache
         out = convex_contacts_for_pairs(
             np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self.position, self.orientation, np.zeros((2, 3)), *cache, speculative,
+            self.position, self.orientation, np.zeros((2, 3)), *cache, speculative, 0.0,
         )  # fmt: skip
         keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
         return dict(zip(keys, out[:7], strict=False)), out[7:]
@@ -105,7 +105,9 @@ SCALES = st.floats(-4, 3).map(lambda e: 10.0**e)
 
 
 @st.composite
-def pairs(draw, kinds=SHAPES, depths=(-0.05, -1e-5, -1e-16, 0.0, 1e-6, 1e-3, 0.05, 0.3)):
+def pairs(
+    draw, kinds=SHAPES, depths=(-0.05, -1e-5, -1e-16, 0.0, 1e-6, 1e-3, 0.05, 0.3), scales=SCALES
+):
     kind_a, kind_b = draw(kinds), draw(kinds)
     seed_a, seed_b = draw(st.integers(0, 2**31)), draw(st.integers(0, 2**31))
     aspect = draw(st.sampled_from([1.0, 4.0, 30.0]))
@@ -127,7 +129,7 @@ def pairs(draw, kinds=SHAPES, depths=(-0.05, -1e-5, -1e-16, 0.0, 1e-6, 1e-3, 0.0
     if situation in ("aligned", "nearly_parallel"):
         direction = ra.apply(np.eye(3)[draw(st.integers(0, 2))])
     depth = draw(st.sampled_from(depths))
-    return placed_pair(mesh_a, mesh_b, ra, rb, direction, depth, draw(SCALES))
+    return placed_pair(mesh_a, mesh_b, ra, rb, direction, depth, draw(scales))
 
 
 @st.composite
@@ -311,12 +313,20 @@ def test_convex_path_agrees_with_the_mesh_path(pair):
 
 
 @settings(max_examples=30, suppress_health_check=[HealthCheck.filter_too_much])
-@given(pairs(kinds=st.sampled_from(["box", "hull", "icosphere"]), depths=(-0.05, 1e-3, 0.05)))
+@given(
+    pairs(
+        kinds=st.sampled_from(["box", "hull", "icosphere"]),
+        depths=(-0.05, 1e-3, 0.05),
+        scales=st.floats(-1, 3).map(lambda e: 10.0**e),
+    )
+)
 def test_convex_path_agrees_with_fcl_convex(pair):
     """python-fcl's convex-convex contact (GJK/EPA at its default tolerance 1e-6).
 
-    fcl's tolerance is an absolute length, so answers are compared where the depth or gap
-    is well beyond it (ten times), and depths to the larger of 1e-5 of the size and that.
+    fcl's tolerances are absolute lengths, so answers are compared on bodies of 0.1 to 1000
+    (below that its depths and normals lose percents: the exact oracle covers those
+    scales), where the depth or gap is well beyond them (ten times), and depths to the
+    larger of 1e-5 of the size and that.
     """
     fcl = pytest.importorskip("fcl")
     depth, _normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)

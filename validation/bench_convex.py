@@ -24,12 +24,18 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs, empty_cache
+from thesis_rbd.collision.convex_contacts import (
+    SPECULATIVE_FRACTION,
+    convex_contacts_for_pairs,
+    empty_cache,
+)
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
 
 COUNT = 1000
 SHAPES = ("box", "icosphere")
+# the speculative reach a world at 240 Hz under gravity gives (twice g dt^2, see World)
+REACH = 2.0 * 9.81 / 240**2
 
 
 class RestingPairs:
@@ -69,7 +75,7 @@ class RestingPairs:
     def convex(self):
         return convex_contacts_for_pairs(
             self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            *self.state(), *self.cache,
+            *self.state(), *self.cache, SPECULATIVE_FRACTION, REACH,
         )  # fmt: skip
 
     def mesh(self):

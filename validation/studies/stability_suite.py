@@ -118,6 +118,8 @@ def _mujoco_installed() -> bool:
 
 # MuJoCo (optional) beside pybullet at its defaults on the cases of resting contact at scale
 RESTING_PEERS = ("pybullet", "mujoco") if _mujoco_installed() else ("pybullet",)
+# the peers' columns of the table: MuJoCo's where it ran
+TABLE_PEERS = (*CONTACT_PEERS, "mujoco") if _mujoco_installed() else CONTACT_PEERS
 FREE_PEERS = ("pybullet",)
 
 
@@ -534,7 +536,13 @@ def _run_contact(name: str, engine: str, seconds: float, rate: int) -> dict:
     dynamic = spec.dynamic()
     top = int(np.argmax([spec.bodies[i].position[2] for i in dynamic]))
     steps = round(seconds * rate)
-    trace = _trace(spec, engine, steps, 1.0 / rate)
+    try:
+        trace = _trace(spec, engine, steps, 1.0 / rate)
+    except ValueError as refusal:
+        if "mujoco" not in ENGINES[engine]:
+            raise
+        # MuJoCo refuses bodies whose mass or inertia is below its mjMINVAL (a 10 um cube)
+        return {"refused": str(refusal).splitlines()[0]}
     x = trace["positions"]
     moved = np.linalg.norm(x - x[0], axis=2)
     # the floor's top is at z = 0, so the energy is what the bodies could release: > 0
@@ -660,7 +668,17 @@ def _count(rows: list[dict], key: str) -> dict:
 def summarise(records: list[dict], figures_dir) -> Section:
     """The pass/fail table (ours and both pybullet configurations side by side), where each
     bound comes from, and the drift figures."""
-    results = {(r["params"]["case"], r["params"]["engine"]): r["result"] for r in records}
+    refused = [
+        {"case_label": CASES[r["params"]["case"]]["label"], "engine": r["params"]["engine"],
+         "engine_label": ENGINES[r["params"]["engine"]]["label"], "reason": r["result"]["refused"]}
+        for r in records
+        if "refused" in r["result"]
+    ]  # fmt: skip
+    results = {
+        (r["params"]["case"], r["params"]["engine"]): r["result"]
+        for r in records
+        if "refused" not in r["result"]
+    }
     rows = []
     for name, spec in CASES.items():
         length = spec.get("length", 1.0)
@@ -676,7 +694,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
                 return bound.resolve(results.get((name, engine)))
 
             peers = {}
-            for peer in CONTACT_PEERS:
+            for peer in TABLE_PEERS:
                 v = value(peer) if peer in spec["peers"] else None
                 peers[peer] = {
                     "value": v,
@@ -710,7 +728,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
     # one peer figure per case and metric, however many of our settings sit beside it
     per_metric = list({(r["case"], r["metric"]): r for r in rows}.values())
     peer_counts = {}
-    for peer in CONTACT_PEERS:
+    for peer in TABLE_PEERS:
         measured = [
             {"pass": None if r["peers"][peer]["construction"] else r["peers"][peer]["pass"]}
             for r in per_metric
@@ -733,7 +751,8 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "construction_count": sum(r["construction"] for r in rows),
         "failing": failing,
         "peer_counts": peer_counts,
-        "peer_labels": {peer: ENGINES[peer]["label"] for peer in CONTACT_PEERS},
+        "peer_labels": {peer: ENGINES[peer]["label"] for peer in TABLE_PEERS},
+        "refused": refused,
         "tuned_helps": tuned_helps,
         "seconds": next(
             r["params"]["seconds"]
@@ -750,11 +769,11 @@ def summarise(records: list[dict], figures_dir) -> Section:
         },
     }
     peer_columns = []
-    for peer in CONTACT_PEERS:
+    for peer in TABLE_PEERS:
         peer_columns += [ENGINES[peer]["label"], "pass"]
     table = Table(
-        caption="Hard cases: each metric over the whole run, its bound, ours and pybullet's "
-        "in both configurations",
+        caption="Hard cases: each metric over the whole run, its bound, ours, pybullet's in "
+        "both configurations and MuJoCo's at its defaults where it ran",
         columns=["case", "thesis_rbd setting", "metric", "bound", "ours", "pass", *peer_columns],
         rows=[
             [
@@ -766,7 +785,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
                 _verdict(r["pass"], r["construction"]),
                 *[
                     cell
-                    for peer in CONTACT_PEERS
+                    for peer in TABLE_PEERS
                     for cell in (
                         format_number(r["peers"][peer]["value"]),
                         _verdict(r["peers"][peer]["pass"], r["peers"][peer]["construction"]),
