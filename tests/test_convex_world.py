@@ -56,3 +56,17 @@ def test_both_paths_rest_the_bodies_in_the_same_place():
     np.testing.assert_allclose(worlds[0].positions, worlds[1].positions, atol=2e-3)
     for world in worlds:
         assert abs(world.position(1)[2] - 0.5) < 1e-3  # the cube rests on its face
+
+
+def test_a_scene_of_convex_bodies_builds_no_tree():
+    """Trees are built when a pair first needs the mesh path: a scene of convex bodies never
+    builds one (nor compiles the tree builder); adding a torus builds the trees then."""
+    world = rbd.World(gravity=(0, 0, -9.81), sleeping=False)
+    world.add_body(FLOOR, static=True, position=(0, 0, -0.5))
+    world.add_body(CUBE, mass=1.0, position=(0, 0, 0.6))
+    world.step(60)
+    geometry = world._collision.geometry
+    assert len(world.contacts["depths"]) and geometry._trees == []
+    world.add_body(TORUS, mass=1.0, position=(1.5, 0, 0.3))
+    world.step(60)
+    assert len(geometry._trees) == 3

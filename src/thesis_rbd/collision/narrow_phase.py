@@ -26,10 +26,18 @@ __all__ = ["GeometrySet", "any_intersection", "contacts_for_pairs"]
 class GeometrySet:
     """The OBBTrees of a world's distinct meshes, concatenated into flat arrays.
 
+    The trees are built when the flat arrays are first asked for, not when a mesh is added:
+    a scene whose pairs all go through the convex path never builds one (nor compiles the
+    tree builder).
+
     Attributes
     ----------
-    trees : list of OBBTree
+    meshes : list of TriangleMesh
         One per distinct mesh, in order of first use.
+    local_lower, local_upper : (g, 3) float64
+        Each mesh's axis-aligned box in its own frame.
+    trees : list of OBBTree
+        One per distinct mesh (built on first access).
     packed_start, face_start : (g + 1,) int64
         Geometry k owns rows ``start[k]:start[k + 1]`` of the packed and face arrays.
     packed : (rows, 3) float64
@@ -42,20 +50,39 @@ class GeometrySet:
 
     def __init__(self, merge_fraction: float = 1e-3):
         self.merge_fraction = merge_fraction
-        self.trees: list[OBBTree] = []
+        self.meshes: list = []
+        self._trees: list[OBBTree] = []
         self._index: dict[int, int] = {}
-        self._pack()
+        self.local_lower = np.zeros((0, 3))
+        self.local_upper = np.zeros((0, 3))
+        self._arrays = None
 
     def geometry_of(self, mesh) -> int:
-        """Index of ``mesh``'s tree, building it on first use (identity, not equality)."""
+        """Index of ``mesh`` (identity, not equality), registering it on first use."""
         key = id(mesh)
         if key not in self._index:
-            self._index[key] = len(self.trees)
-            self.trees.append(OBBTree(mesh))
-            self._pack()
+            self._index[key] = len(self.meshes)
+            self.meshes.append(mesh)
+            bounds = np.asarray(mesh.bounds, dtype=np.float64)
+            self.local_lower = np.vstack([self.local_lower, bounds[:1]])
+            self.local_upper = np.vstack([self.local_upper, bounds[1:]])
+            self._arrays = None
         return self._index[key]
 
-    def _pack(self) -> None:
+    @property
+    def trees(self) -> list[OBBTree]:
+        """The meshes' trees, building those not built yet."""
+        for mesh in self.meshes[len(self._trees) :]:
+            self._trees.append(OBBTree(mesh))
+        return self._trees
+
+    def arrays(self) -> tuple:
+        """The flat arrays in the order ``contacts_for_pairs`` takes them."""
+        if self._arrays is None:
+            self._arrays = self._pack()
+        return self._arrays
+
+    def _pack(self) -> tuple:
         trees = self.trees
 
         def offsets(sizes):
@@ -74,11 +101,6 @@ class GeometrySet:
         self.merge_tolerance = np.array(
             [max(self.merge_fraction, MERGE_FRACTION) * t.scale for t in trees], dtype=np.float64
         )
-        self.local_lower = stacked([t.mesh.bounds[:1] for t in trees], (3,), np.float64)
-        self.local_upper = stacked([t.mesh.bounds[1:] for t in trees], (3,), np.float64)
-
-    def arrays(self) -> tuple:
-        """The flat arrays in the order ``contacts_for_pairs`` takes them."""
         return (self.packed_start, self.face_start, self.packed, self.faces, self.merge_tolerance)
 
 
