@@ -46,6 +46,7 @@ from validation.studies import (
     sap_benchmarks,
     stability_suite,
     startup,
+    step_benchmarks,
 )
 
 __all__ = ["STUDIES", "get_study"]
@@ -71,6 +72,7 @@ STUDIES: dict[str, ModuleType] = {
         query_benchmarks,
         sap_benchmarks,
         contact_benchmarks,
+        step_benchmarks,
         startup,
     )
 }
