@@ -18,6 +18,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 import numpy as np
+from reference import _cross, _dot, _sub
 
 __all__ = [
     "exact_pairs",
@@ -39,18 +40,6 @@ def _as_integers(*point_lists):
         out.append(ints[k : k + len(pts)])
         k += len(pts)
     return out
-
-
-def _sub(a, b):
-    return [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-
-
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def _clamp01(x):

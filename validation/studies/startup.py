@@ -96,20 +96,26 @@ def _children_cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _probe(scene: str, seconds: float, cache: Path | None, folder: Path) -> dict:
-    """One fresh process running the scene: its wall and processor time, its compile record."""
-    record_path = folder / f"probe-{len(list(folder.glob('probe-*.json')))}.json"
-    command = [sys.executable, "-m", "validation.startup_probe", scene, str(seconds)]
+def _timed_run(command: list[str], cache: Path | None, folder: Path):
+    """Run ``command`` in a fresh process on the numba cache ``cache`` (None: the usual one)
+    from ``folder``: (the finished process, its wall seconds, its processor seconds)."""
     cpu_start, start = _children_cpu_seconds(), perf_counter()
     finished = subprocess.run(
-        [*command, str(record_path)],
+        command,
         env=_environment(cache),
         cwd=folder,
         capture_output=True,
         text=True,
         check=False,
     )
-    wall, cpu = perf_counter() - start, _children_cpu_seconds() - cpu_start
+    return finished, perf_counter() - start, _children_cpu_seconds() - cpu_start
+
+
+def _probe(scene: str, seconds: float, cache: Path | None, folder: Path) -> dict:
+    """One fresh process running the scene: its wall and processor time, its compile record."""
+    record_path = folder / f"probe-{len(list(folder.glob('probe-*.json')))}.json"
+    command = [sys.executable, "-m", "validation.startup_probe", scene, str(seconds)]
+    finished, wall, cpu = _timed_run([*command, str(record_path)], cache, folder)
     if finished.returncode != 0:
         raise RuntimeError(
             f"thesis-rbd run {scene} failed ({finished.returncode}): {finished.stderr[-2000:]}"
@@ -152,16 +158,9 @@ def _warmup_then_scenes() -> dict:
     with tempfile.TemporaryDirectory(prefix="thesis-rbd-startup-") as temporary:
         folder = Path(temporary)
         cache = folder / "numba-cache"
-        cpu_start, start = _children_cpu_seconds(), perf_counter()
-        finished = subprocess.run(
-            [sys.executable, "-m", "thesis_rbd.cli", "warmup", "--quiet"],
-            env=_environment(cache),
-            cwd=folder,
-            capture_output=True,
-            text=True,
-            check=False,
+        finished, wall, cpu = _timed_run(
+            [sys.executable, "-m", "thesis_rbd.cli", "warmup", "--quiet"], cache, folder
         )
-        wall, cpu = perf_counter() - start, _children_cpu_seconds() - cpu_start
         if finished.returncode != 0:
             raise RuntimeError(f"thesis-rbd warmup failed: {finished.stderr[-2000:]}")
         after = {
@@ -177,16 +176,9 @@ def _warmup_then_scenes() -> dict:
 
 
 def _pytest_once(cache: Path) -> dict:
-    cpu_start, start = _children_cpu_seconds(), perf_counter()
-    finished = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"],
-        env=_environment(cache),
-        cwd=REPOSITORY,
-        capture_output=True,
-        text=True,
-        check=False,
+    finished, wall, cpu = _timed_run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cache, REPOSITORY
     )
-    wall, cpu = perf_counter() - start, _children_cpu_seconds() - cpu_start
     tail = finished.stdout.strip().splitlines()[-1] if finished.stdout.strip() else ""
     counts = {
         outcome: int(count)
