@@ -75,7 +75,13 @@ def test_status_shows_a_spinner_on_a_terminal_while_compiling():
     console = Console(file=screen, force_terminal=True, width=100)
     status = RunStatus("demo", console=console)
     caller, _ = fresh_kernels()
-    with CompileLog(on_start=status.compiling, on_end=lambda _: status.compiling(None)):
+
+    def started(kernel):
+        status.compiling(kernel)
+        # draw now: a small kernel can compile before the live display's first refresh
+        status.display.refresh()
+
+    with CompileLog(on_start=started, on_end=lambda _: status.compiling(None)):
         caller(1.0)
     status.close()
     assert COMPILING_MESSAGE in screen.getvalue() and "caller" in screen.getvalue()
