@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import signal
 import sys
 from pathlib import Path
 from time import perf_counter
@@ -337,7 +338,8 @@ def view(
                 loaded, host=host, port=port, playing=not paused, on_compile=status.compiling
             )
         typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
-        live.run()
+        with _ctrl_c_stops(live):
+            live.run()
     except KeyboardInterrupt:
         pass  # Ctrl-C is how the view is meant to end
     finally:
@@ -348,6 +350,25 @@ def view(
         typer.echo(
             f"thesis-rbd view: stopped at t = {live.world.time:.3f} s after {live.steps} steps"
         )
+
+
+@contextlib.contextmanager
+def _ctrl_c_stops(live):
+    """While the view runs, Ctrl-C asks its loop to end after the current frame instead of
+    raising KeyboardInterrupt wherever the main thread happens to be (inside the web server's
+    calls an interrupt can leave a lock held, and stopping the server then waits forever); a
+    second Ctrl-C interrupts at once."""
+
+    def stop(signum, frame):
+        if live.stopping:
+            raise KeyboardInterrupt
+        live.stop()
+
+    previous = signal.signal(signal.SIGINT, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @app.command()

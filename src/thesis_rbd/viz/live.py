@@ -424,8 +424,13 @@ class LiveView:
         self.body_state.content = "\n".join(lines)
 
     def stop(self) -> None:
-        """End :meth:`run` (safe from any thread)."""
+        """End :meth:`run` (safe from any thread and from a signal handler)."""
         self._stop.set()
+
+    @property
+    def stopping(self) -> bool:
+        """Whether :meth:`stop` has been called."""
+        return self._stop.is_set()
 
     def close(self) -> None:
         """Stop the server: the page says that its connection is lost."""
