@@ -64,6 +64,10 @@ def run_benchmark_suite(
             os.environ,
             PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
         )
+        # run from a pytest-xdist worker (the test suite's campaign), the worker's variables
+        # would make pytest-benchmark disable itself in the child
+        for name in [name for name in env if name.startswith("PYTEST_XDIST")]:
+            del env[name]
         done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, env=env)
         if done.returncode != 0 or not out.is_file():
             raise RuntimeError(

@@ -177,7 +177,20 @@ def _warmup_then_scenes() -> dict:
 
 def _pytest_once(cache: Path) -> dict:
     finished, wall, cpu = _timed_run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cache, REPOSITORY
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "-n",
+            "2",
+            "--dist",
+            "loadfile",
+        ],
+        cache,
+        REPOSITORY,  # the README's test command
     )
     tail = finished.stdout.strip().splitlines()[-1] if finished.stdout.strip() else ""
     counts = {
