@@ -192,7 +192,11 @@ def check_against_oracle(pair):
         if faces_apart > margin:
             assert len(depths) == 0
             return None
-        assert 1 <= len(depths) <= 4
+        # within the margin along an edge pair's axis, the edges themselves may still be
+        # further apart than the margin (their lines pass close elsewhere): then none
+        assert len(depths) <= 4
+        if len(depths) == 0:
+            return None
         assert depth - tolerance <= depths.max() <= -faces_apart + tolerance
         # the normal is checked where the best axis over all is an outward face normal
         unique &= -faces_apart <= depth + tolerance
@@ -347,10 +351,13 @@ def test_convex_path_agrees_with_fcl_convex(pair):
     if not result.is_collision:
         return
     theirs = result.contacts[0]
+    tolerance = max(1e-5 * pair.size, fcl_tolerance)
+    # fcl's EPA stops at its face and iteration limits, which on hulls of many faces can
+    # leave its depth off the exact one by more than its tolerance: agreement is asked where
+    # fcl itself is right (ours is checked against the exact oracle everywhere)
+    assume(abs(theirs.penetration_depth - depth) <= tolerance)
     # fcl's normal points from the first object to the second: ours from B to A
-    assert abs(theirs.penetration_depth - ours["depths"].max()) <= max(
-        1e-5 * pair.size, fcl_tolerance
-    )
+    assert abs(theirs.penetration_depth - ours["depths"].max()) <= 2 * tolerance
     assert float(-np.asarray(theirs.normal) @ ours["normals"][0]) >= math.cos(1e-3)
 
 

@@ -469,7 +469,12 @@ def convex_contacts_for_pairs(
                 )  # fmt: skip
             if count == 0:
                 count = 1
-                _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
+                gap2 = _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
+                if separation > 0.0 and gap2 > (margin + tolerance) ** 2:
+                    # apart along the edges' axis by at most the margin, but the segments
+                    # themselves are further apart (their lines pass close elsewhere): no
+                    # speculative contact
+                    count = 0
                 out_depths[c] = -separation
                 out_features[c] = feature_id(EDGES, fi, fj, 0)
             # the normal runs from B towards A: against the axis
@@ -526,7 +531,8 @@ def _face_beside_edges(H, ha, hb, edge_a, edge_b, R, ux, uy, uz):
 
 @njit
 def _edge_contact(H, ha, hb, edge_a, edge_b, R, t, Ri, ti, out_points, c):
-    """The one contact of an edge pair, world frame, into ``out_points[c]``."""
+    """The one contact of an edge pair, world frame, into ``out_points[c]``; returns the
+    squared distance between the two edges' closest points."""
     vertex_start, vertices, edge_start, edges = H[0], H[1], H[11], H[12]
     a0 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 0]
     a1 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 1]
@@ -534,6 +540,7 @@ def _edge_contact(H, ha, hb, edge_a, edge_b, R, t, Ri, ti, out_points, c):
     b1 = vertex_start[hb] + edges[edge_start[hb] + edge_b, 1]
     pb = R @ vertices[b0] + t
     qb = R @ vertices[b1] + t
-    x, y, z = edge_contact_point(vertices[a0], vertices[a1], pb, qb)
+    x, y, z, gap2 = edge_contact_point(vertices[a0], vertices[a1], pb, qb)
     for a in range(3):
         out_points[c, a] = Ri[a, 0] * x + Ri[a, 1] * y + Ri[a, 2] * z + ti[a]
+    return gap2

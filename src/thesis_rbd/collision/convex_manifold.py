@@ -263,8 +263,9 @@ def four_corners(points, depths, count, nx, ny, nz, tie, keep):
 def edge_contact_point(pa, qa, pb, qb):
     """Midpoint of the closest points of segments pa-qa and pb-qb, each (3,).
 
-    Returns (x, y, z). Closest points of the two lines, clamped to the segments (Ericson,
-    Real-Time Collision Detection, 5.1.9).
+    Returns (x, y, z, gap2): the midpoint and the squared distance between the closest
+    points. Closest points of the two lines, clamped to the segments (Ericson, Real-Time
+    Collision Detection, 5.1.9).
     """
     d1x, d1y, d1z = qa[0] - pa[0], qa[1] - pa[1], qa[2] - pa[2]
     d2x, d2y, d2z = qb[0] - pb[0], qb[1] - pb[1], qb[2] - pb[2]
@@ -283,8 +284,7 @@ def edge_contact_point(pa, qa, pb, qb):
     elif t > 1.0:
         t = 1.0
         s = min(max((b - c) / a, 0.0), 1.0)
-    return (
-        0.5 * (pa[0] + s * d1x + pb[0] + t * d2x),
-        0.5 * (pa[1] + s * d1y + pb[1] + t * d2y),
-        0.5 * (pa[2] + s * d1z + pb[2] + t * d2z),
-    )
+    ux, uy, uz = pa[0] + s * d1x, pa[1] + s * d1y, pa[2] + s * d1z
+    vx, vy, vz = pb[0] + t * d2x, pb[1] + t * d2y, pb[2] + t * d2z
+    gap2 = (ux - vx) ** 2 + (uy - vy) ** 2 + (uz - vz) ** 2
+    return 0.5 * (ux + vx), 0.5 * (uy + vy), 0.5 * (uz + vz), gap2
