@@ -155,11 +155,11 @@ def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
 
 
 @njit
-def _measure(x, y, Pa, La, Pb, Lb, Mab, tab):
-    """Exact distance of the triangle pair (x, y) (codes < 0), points in A's frame."""
+def _pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab):
+    """The six corners of the triangle pair (x, y) (codes < 0), B's carried into A's frame."""
     ta = -x - 1
     tb = -y - 1
-    return triangle_distance(
+    return (
         corner(Pa, La, ta, 0),
         corner(Pa, La, ta, 1),
         corner(Pa, La, ta, 2),
@@ -170,18 +170,15 @@ def _measure(x, y, Pa, La, Pb, Lb, Mab, tab):
 
 
 @njit
+def _measure(x, y, Pa, La, Pb, Lb, Mab, tab):
+    """Exact distance of the triangle pair (x, y) (codes < 0), points in A's frame."""
+    return triangle_distance(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
+
+
+@njit
 def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
     """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
-    ta = -x - 1
-    tb = -y - 1
-    return triangle_gap(
-        corner(Pa, La, ta, 0),
-        corner(Pa, La, ta, 1),
-        corner(Pa, La, ta, 2),
-        corner_moved(Pb, Lb, tb, 0, Mab, tab),
-        corner_moved(Pb, Lb, tb, 1, Mab, tab),
-        corner_moved(Pb, Lb, tb, 2, Mab, tab),
-    )
+    return triangle_gap(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
 
 
 @njit

@@ -14,7 +14,13 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
-__all__ = ["body_velocities", "contact_tolerances", "normal_velocity", "write_momenta"]
+__all__ = [
+    "body_velocities",
+    "contact_arms",
+    "contact_tolerances",
+    "normal_velocity",
+    "write_momenta",
+]
 
 
 @njit
@@ -31,6 +37,21 @@ def contact_tolerances(body_a, body_b, static, thickness, slop_fraction):
             thinnest = min(thinnest, thickness[b])
         slop[k] = slop_fraction * thinnest
     return slop
+
+
+@njit
+def contact_arms(points, position, rows, body_a, body_b):
+    """Lever arms (k, 3) of the contacts ``rows`` (k,) of ``points`` (c, 3), world frame:
+    each point minus the centre of mass of its body in ``body_a`` / ``body_b`` (k,), which
+    are already the bodies of those rows."""
+    k = rows.shape[0]
+    arm_a = np.empty((k, 3))
+    arm_b = np.empty((k, 3))
+    for r in range(k):
+        for a in range(3):
+            arm_a[r, a] = points[rows[r], a] - position[body_a[r], a]
+            arm_b[r, a] = points[rows[r], a] - position[body_b[r], a]
+    return arm_a, arm_b
 
 
 @njit

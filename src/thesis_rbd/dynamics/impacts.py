@@ -32,6 +32,7 @@ from thesis_rbd.collision.time_of_impact import move_ballistic
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import (
     body_velocities,
+    contact_arms,
     contact_tolerances,
     normal_velocity,
     write_momenta,
@@ -153,12 +154,7 @@ def resolve_impacts(
                 m += 1
     sub_start = np.array(starts, np.int64)
     sa, sb = body_a[sel], body_b[sel]
-    arm_a = np.empty((kept, 3))
-    arm_b = np.empty((kept, 3))
-    for k in range(kept):
-        for a in range(3):
-            arm_a[k, a] = points[sel[k], a] - position[sa[k], a]
-            arm_b[k, a] = points[sel[k], a] - position[sb[k], a]
+    arm_a, arm_b = contact_arms(points, position, sel, sa, sb)
     sub_normals = normals[sel]
     basis = contact_basis(sub_normals)
     slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])

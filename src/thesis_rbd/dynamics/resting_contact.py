@@ -40,6 +40,7 @@ from thesis_rbd._jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import (
     body_velocities,
+    contact_arms,
     contact_tolerances,
     normal_velocity,
     write_momenta,
@@ -144,12 +145,7 @@ def solve_contacts(
     stats[0] = island_start.shape[0] - 1
     sa = body_a[order]
     sb = body_b[order]
-    arm_a = np.empty((c, 3))
-    arm_b = np.empty((c, 3))
-    for k in range(c):
-        for a in range(3):
-            arm_a[k, a] = points[order[k], a] - position[sa[k], a]
-            arm_b[k, a] = points[order[k], a] - position[sb[k], a]
+    arm_a, arm_b = contact_arms(points, position, order, sa, sb)
     sorted_normals = normals[order]
     basis = contact_basis(sorted_normals)
     slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
