@@ -22,12 +22,26 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from thesis_rbd._jit import njit
 from thesis_rbd.spatial.quaternion import conjugate, derivative, normalize, rotate
 
 __all__ = ["INTEGRATORS", "body_forces", "integrate_bodies"]
 
 INTEGRATORS = {"euler": 0, "symplectic_euler": 1, "midpoint": 2, "rk4": 3}
+
+# Each method's stages (rows: the values of INTEGRATORS): how many, the node of the next stage
+# (stage s + 1 is evaluated at y0 + c h k_s), and the weights b_s of the update
+# y0 + h / divisor * sum_s b_s k_s. Symplectic Euler uses its one stage for the momenta only.
+_STAGES = np.array([1, 1, 2, 4])
+_NEXT_NODE = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.5, 1.0]])
+_WEIGHT = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [1.0, 2.0, 2.0, 1.0]]
+)
+_WEIGHT_DIVISOR = np.array([1.0, 1.0, 1.0, 6.0])
+_ZERO3 = (0.0, 0.0, 0.0)
+_ZERO4 = (0.0, 0.0, 0.0, 0.0)
 
 
 @njit(inline="always")
@@ -104,24 +118,13 @@ def _add4(a, h, b):
 
 
 @njit(inline="always")
-def _rk4_sum3(a, h, k1, k2, k3, k4):
-    s = h / 6.0
-    return (
-        a[0] + s * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-        a[1] + s * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        a[2] + s * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
-    )
+def _scale3(b, a):
+    return (b * a[0], b * a[1], b * a[2])
 
 
 @njit(inline="always")
-def _rk4_sum4(a, h, k1, k2, k3, k4):
-    s = h / 6.0
-    return (
-        a[0] + s * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-        a[1] + s * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        a[2] + s * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
-        a[3] + s * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
-    )
+def _scale4(b, a):
+    return (b * a[0], b * a[1], b * a[2], b * a[3])
 
 
 @njit
@@ -208,32 +211,31 @@ def integrate_bodies(
         if solved[i]:  # momenta are final: move with them
             v = (P0[0] * im, P0[1] * im, P0[2] * im)
             x, q, P, L = _add3(x0, h, v), _turn(q0, h, _angular_velocity(q0, L0, Ii)), P0, L0
-        elif method == 0:  # explicit Euler
-            v1, dq1, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
-            x, q, P, L = _add3(x0, h, v1), _add4(q0, h, dq1), _add3(P0, h, F1), _add3(L0, h, T1)
-        elif method == 1:  # symplectic Euler: momenta first, then configuration
-            _, _, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
-            P, L = _add3(P0, h, F1), _add3(L0, h, T1)
-            v = (P[0] * im, P[1] * im, P[2] * im)
-            w = _angular_velocity(normalize(q0), L, Ii)
-            x, q = _add3(x0, h, v), _add4(q0, h, derivative(q0, w))
-        elif method == 2:  # explicit midpoint
-            v1, dq1, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
-            qm, Pm, Lm = _add4(q0, 0.5 * h, dq1), _add3(P0, 0.5 * h, F1), _add3(L0, 0.5 * h, T1)
-            v2, dq2, F2, T2 = _derivative(i, qm, Pm, Lm, im, Ii, Fx, drag, pfs, pfa, pff)
-            x, q, P, L = _add3(x0, h, v2), _add4(q0, h, dq2), _add3(P0, h, F2), _add3(L0, h, T2)
-        else:  # classical fourth-order Runge-Kutta
-            v1, dq1, F1, T1 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
-            q2, P2, L2 = _add4(q0, 0.5 * h, dq1), _add3(P0, 0.5 * h, F1), _add3(L0, 0.5 * h, T1)
-            v2, dq2, F2, T2 = _derivative(i, q2, P2, L2, im, Ii, Fx, drag, pfs, pfa, pff)
-            q3, P3, L3 = _add4(q0, 0.5 * h, dq2), _add3(P0, 0.5 * h, F2), _add3(L0, 0.5 * h, T2)
-            v3, dq3, F3, T3 = _derivative(i, q3, P3, L3, im, Ii, Fx, drag, pfs, pfa, pff)
-            q4, P4, L4 = _add4(q0, h, dq3), _add3(P0, h, F3), _add3(L0, h, T3)
-            v4, dq4, F4, T4 = _derivative(i, q4, P4, L4, im, Ii, Fx, drag, pfs, pfa, pff)
-            x = _rk4_sum3(x0, h, v1, v2, v3, v4)
-            q = _rk4_sum4(q0, h, dq1, dq2, dq3, dq4)
-            P = _rk4_sum3(P0, h, F1, F2, F3, F4)
-            L = _rk4_sum3(L0, h, T1, T2, T3, T4)
+        else:
+            # The explicit methods as stages of one loop, so the derivative is written (and
+            # compiled) once: stage s is evaluated at y0 + c_s h k_(s-1) and weighted by b_s.
+            stages = _STAGES[method]
+            qs, Ps, Ls = q0, P0, L0
+            sv, sq, sF, sT = _ZERO3, _ZERO4, _ZERO3, _ZERO3
+            for s in range(stages):
+                v, dq, F, T = _derivative(i, qs, Ps, Ls, im, Ii, Fx, drag, pfs, pfa, pff)
+                b = _WEIGHT[method, s]
+                if s == 0:
+                    sv, sq, sF, sT = _scale3(b, v), _scale4(b, dq), _scale3(b, F), _scale3(b, T)
+                elif b != 0.0:
+                    sv, sq = _add3(sv, b, v), _add4(sq, b, dq)
+                    sF, sT = _add3(sF, b, F), _add3(sT, b, T)
+                if s + 1 < stages:
+                    c = _NEXT_NODE[method, s] * h
+                    qs, Ps, Ls = _add4(q0, c, dq), _add3(P0, c, F), _add3(L0, c, T)
+            hb = h / _WEIGHT_DIVISOR[method]
+            P, L = _add3(P0, hb, sF), _add3(L0, hb, sT)
+            if method == 1:  # symplectic Euler: the configuration moves with the new momenta
+                v = (P[0] * im, P[1] * im, P[2] * im)
+                w = _angular_velocity(normalize(q0), L, Ii)
+                x, q = _add3(x0, h, v), _add4(q0, h, derivative(q0, w))
+            else:
+                x, q = _add3(x0, hb, sv), _add4(q0, hb, sq)
 
         q = normalize(q)
         for k in range(3):
