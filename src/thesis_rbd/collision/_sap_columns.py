@@ -31,10 +31,12 @@ __all__ = ["build_axes", "merge_records", "new_records", "rebin_axis"]
 @njit
 def _sort_records(rv, re, rc):
     """Records ``(value, code, column)`` sorted by the key (column, value, is_end)."""
-    # Three stable passes: begins before ends, then by value, then by column.
-    order = np.argsort(re & 1, kind="mergesort")
+    # Three stable passes: begins before ends, then by value, then by column. The integer
+    # keys are sorted as int64, the type of the package's other stable sorts, so that numba
+    # compiles one merge sort for them.
+    order = np.argsort((re & 1).astype(np.int64), kind="mergesort")
     order = order[np.argsort(rv[order], kind="mergesort")]
-    order = order[np.argsort(rc[order], kind="mergesort")]
+    order = order[np.argsort(rc[order].astype(np.int64), kind="mergesort")]
     return rv[order], re[order], rc[order]
 
 
