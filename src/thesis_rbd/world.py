@@ -128,7 +128,8 @@ class World:
         Projected Gauss-Seidel with the exact (Lemke) solve for small islands it does not
         converge on ("auto"), PGS alone, or Lemke for every island.
     contact_iterations : int
-        Largest number of PGS sweeps per island and step (they stop early once converged).
+        Largest number of PGS sweeps per island and step (they stop early once converged;
+        a tall stack needs a few hundred when it starts unwarmed).
     friction_sides : int
         Sides of the polygonal friction cone.
     penetration : {"toi", "bias"}
@@ -151,7 +152,7 @@ class World:
         angular_drag: float = 0.0,
         contact_response: bool = True,
         contact_solver: str = "auto",
-        contact_iterations: int = 100,
+        contact_iterations: int = 300,
         friction_sides: int = 8,
         penetration: str = "toi",
         sleeping: bool = True,

@@ -282,6 +282,17 @@ def _face_manifold(
     for q in range(kept):
         depths[q] = d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2])
     n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
+    # Out in the order of their feature ids, not from the deepest corner on: which corner of
+    # a flat face is deepest is decided by rounding, and the contact solver sweeps contacts
+    # in order, so the same contacts must come out in the same order (the same stack placed
+    # far from the origin then steps as at the origin, up to rounding).
+    for r in range(1, n_keep):
+        q = keep[r]
+        s = r
+        while s > 0 and tags[keep[s - 1]] > tags[q]:
+            keep[s] = keep[s - 1]
+            s -= 1
+        keep[s] = q
     for r in range(n_keep):
         q = keep[r]
         half = 0.5 * depths[q]

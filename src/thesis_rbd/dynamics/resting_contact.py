@@ -18,8 +18,9 @@ Per contact (tolerances in ``contact_settings``):
   margin) may close its gap over the step and no more; one approaching it fast is left to the
   time of impact;
 * a contact approaching faster than its bounce threshold (read from v, before the forces)
-  bounces: compression (bias 0), then e times its compression impulse (Poisson's restitution,
-  which unlike Newton's law at simultaneous contacts never adds energy);
+  bounces: compression of its approach before the step's forces (the forces act on as over
+  any step), then e times that compression impulse (Poisson's restitution, which unlike
+  Newton's law at simultaneous contacts never adds energy);
 * a contact shallower than its slop may approach by ``BAUMGARTE`` of the difference per step,
   so that touching bodies settle to where their contact is found every step;
 * penetration beyond the slop is removed at ``BAUMGARTE`` of it per step: by pseudo-velocities
@@ -171,8 +172,12 @@ def solve_contacts(
             # body flying at it is left to the time of impact, which catches its bounce
             bias[k] = np.inf if approaching_fast else -depth / dt
         elif approaching_fast:
+            # compression stops the approach it had before the step's forces (their share
+            # acts on as over any step), then e times that impulse pushes it back: the
+            # forces' own impulse must not bounce, or their work would be added to the
+            # rebound
             bounce[k] = restitution[a] * restitution[b]
-            bias[k] = 0.0
+            bias[k] = u_before - u_forced
         elif depth <= slop[k] or at_rest:
             bias[k] = 0.0
         else:
