@@ -402,8 +402,10 @@ def convex_contacts_for_pairs(
         World contact points (midway between the two surfaces) and unit normals from b
         towards a.
     depths : (c,) float64
-        The pair's penetration depth along the normal, the same for all its contacts: > 0
-        penetration, < 0 a gap within the speculative margin.
+        The deepest contact of a pair carries the pair's penetration depth along the normal,
+        the others less by as much as their corners lie above the deepest (a corner within
+        the margin above the other body: a gap): > 0 penetration, < 0 a gap within the
+        speculative margin.
     faces : (c, 2) int64
         -1: hull faces are not mesh triangles.
     features : (c,) int64
@@ -496,16 +498,28 @@ def convex_contacts_for_pairs(
                 tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
                 out_depths, out_features, c,
             )  # fmt: skip
+            if separation > 0.0 and count == 1 and tags[0] == _DEEPEST_VERTEX_TAG:
+                # apart, and no corner of the incident face within the margin over the
+                # reference face: the other body's nearest vertex lies beside that face,
+                # possibly far from it, so no speculative contact (as for edges above)
+                count = 0
             # against A's outward face normal, along B's
             if kind == FACE_A:
                 nx, ny, nz = -nx, -ny, -nz
         wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
         wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
         wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
+        # The deepest contact carries the pair's depth (its exact penetration, or minus its
+        # gap), the others as much less as their corners lie above the deepest: a corner
+        # the margin kept above the other body is a gap the solver lets close, not a
+        # support (a tilted plate would rest on its raised edge).
+        deepest = -np.inf
+        for r in range(c, c + count):
+            deepest = max(deepest, out_depths[r])
         for r in range(c, c + count):
             body_a[r], body_b[r] = i, j
             out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz
-            out_depths[r] = -separation
+            out_depths[r] = -separation - (deepest - out_depths[r])
         c += count
 
     order = np.argsort(new_keys)
