@@ -154,7 +154,15 @@ class HeadlessChromium:
                 self.process.kill()
                 self.process.wait()
         self.process.stderr.close()
-        self._profile.cleanup()
+        # Chromium's helper processes can still be writing into the profile for a moment
+        # after the browser itself exits: retry, then leave what remains to the system
+        for _ in range(50):
+            try:
+                self._profile.cleanup()
+                return
+            except OSError:
+                time.sleep(0.1)
+        shutil.rmtree(self._profile.name, ignore_errors=True)
 
     def __enter__(self) -> HeadlessChromium:
         return self
