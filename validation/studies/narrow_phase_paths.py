@@ -29,14 +29,6 @@ import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-import thesis_rbd as rbd
-from thesis_rbd.collision.convex_contacts import (
-    SPECULATIVE_FRACTION,
-    convex_contacts_for_pairs,
-    empty_cache,
-)
-from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
 from validation.cases import Case
 from validation.convex_oracle import least_penetration
 from validation.formatting import format_number
@@ -65,7 +57,9 @@ def cases(scale: str) -> list[Case]:
     ]
 
 
-def _shape(kind: str, rng: np.random.Generator) -> rbd.TriangleMesh:
+def _shape(kind: str, rng: np.random.Generator):
+    import thesis_rbd as rbd
+
     if kind == "box":
         return rbd.shapes.box(np.exp(rng.uniform(-1.0, 1.0, 3) * math.log(30.0) / 2))
     if kind == "hull":
@@ -77,9 +71,21 @@ def _shape(kind: str, rng: np.random.Generator) -> rbd.TriangleMesh:
 
 
 class _Scene:
-    """``count`` pairs (bodies 2k and 2k + 1), each far from the others."""
+    """``count`` pairs (bodies 2k and 2k + 1), each far from the others.
+
+    The library is imported here, not with the module: the campaign's modules are also
+    imported beside earlier checkouts of the package (``validation.formulation_before``),
+    which have no convex path.
+    """
 
     def __init__(self, kinds, count, seed):
+        from thesis_rbd.collision import convex_contacts, narrow_phase
+        from thesis_rbd.collision.convex_hull_data import HullSet
+
+        self._convex_kernel = convex_contacts.convex_contacts_for_pairs
+        self._speculative = convex_contacts.SPECULATIVE_FRACTION
+        self._empty_cache = convex_contacts.empty_cache
+        self._mesh_kernel = narrow_phase.contacts_for_pairs
         rng = np.random.default_rng(seed)
         self.meshes, position, orientation, self.depth_fraction = [], [], [], []
         for k in range(count):
@@ -108,10 +114,10 @@ class _Scene:
         self.orientation = np.array(orientation)
         self.center_of_mass_local = np.zeros_like(self.position)
         self.pairs = np.arange(2 * count, dtype=np.int64).reshape(count, 2)
-        self.hulls, self.trees = HullSet(), GeometrySet()
+        self.hulls, self.trees = HullSet(), narrow_phase.GeometrySet()
         self.hull_of_body = np.array([self.hulls.hull_of(m) for m in self.meshes], np.int64)
         self.tree_of_body = np.array([self.trees.geometry_of(m) for m in self.meshes], np.int64)
-        self.cache = empty_cache()
+        self.cache = self._empty_cache()
         self.cache = self.convex_warm()[7:]
 
     def world(self, body: int) -> np.ndarray:
@@ -119,20 +125,20 @@ class _Scene:
         return self.meshes[body].vertices @ R.T + self.position[body]
 
     def _convex(self, cache):
-        return convex_contacts_for_pairs(
+        return self._convex_kernel(
             self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
             self.position, self.orientation, self.center_of_mass_local, *cache,
-            SPECULATIVE_FRACTION, 0.0,
+            self._speculative, 0.0,
         )  # fmt: skip
 
     def convex_warm(self):
         return self._convex(self.cache)
 
     def convex_cold(self):
-        return self._convex(empty_cache())
+        return self._convex(self._empty_cache())
 
     def mesh(self):
-        return contacts_for_pairs(
+        return self._mesh_kernel(
             self.pairs, self.tree_of_body, self.trees.arrays(), self.position, self.orientation,
             self.center_of_mass_local,
         )  # fmt: skip
