@@ -23,13 +23,9 @@ study ``predicate_cost`` renders it.
 from __future__ import annotations
 
 import argparse
-import datetime
 import importlib
-import json
-import platform
 import re
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -40,6 +36,7 @@ from scipy.spatial.transform import Rotation
 
 import thesis_rbd
 from validation.cad_parts import PARTS, placement
+from validation.recording import commit_of, write_record
 from validation.tori import tori_mesh, tori_poses
 
 OUT = Path(__file__).parent / "data" / "predicate_cost.json"
@@ -48,16 +45,6 @@ REPEATS = {"first": 25, "all": 7, "contacts": 7}
 RANDOM_POSES_PER_PART = 30
 FLUSH_GAPS = (0.0, -1e-12, 1e-12, 1e-6)  # of the part's size, as in the flush tests
 FLUSH_TURNS = (("none", 0), ("whole", 7), ("about_normal", 0))
-
-
-def _commit(source: Path) -> str:
-    try:
-        return subprocess.run(
-            ["git", "-C", str(source), "rev-parse", "HEAD"],
-            capture_output=True, text=True, check=True,
-        ).stdout.strip()  # fmt: skip
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def import_renamed(checkout: Path, folder: Path):
@@ -149,18 +136,13 @@ def main(argv: list[str] | None = None) -> int:
                 timing = time_interleaved(engines, queries, mode, REPEATS[mode])
                 results[load][mode] = {**timing, "repeats": REPEATS[mode]}
                 print(load, mode, timing, flush=True)
-    OUT.write_text(
-        json.dumps(
-            {
-                "before_commit": _commit(args.before),
-                "after_commit": _commit(after_source),
-                "date": datetime.date.today().isoformat(),
-                "machine": f"{platform.machine()}, {platform.processor() or 'cpu'}, "
-                f"Python {platform.python_version()}",
-                "workloads": results,
-            },
-            indent=1,
-        )
+    write_record(
+        OUT,
+        {
+            "before_commit": commit_of(args.before),
+            "after_commit": commit_of(after_source),
+            "workloads": results,
+        },
     )
     return 0
 

@@ -15,27 +15,14 @@ imports (the earlier one, by PYTHONPATH) and writes
 
 from __future__ import annotations
 
-import datetime
-import json
-import platform
-import subprocess
 import sys
 from pathlib import Path
 
 import thesis_rbd
+from validation.recording import commit_of, write_record
 from validation.studies import contact_formulations
 
 OUT = Path(__file__).parent / "data" / "contact_formulation_before.json"
-
-
-def _commit(source: Path) -> str:
-    try:
-        return subprocess.run(
-            ["git", "-C", str(source), "rev-parse", "HEAD"],
-            capture_output=True, text=True, check=True,
-        ).stdout.strip()  # fmt: skip
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def main() -> int:
@@ -44,18 +31,7 @@ def main() -> int:
     for name, engine in contact_formulations.case_keys():
         records[f"{name}/{engine}"] = contact_formulations.run({"case": name, "engine": engine})
         print(name, engine, records[f"{name}/{engine}"], flush=True)
-    OUT.write_text(
-        json.dumps(
-            {
-                "commit": _commit(source),
-                "date": datetime.date.today().isoformat(),
-                "machine": f"{platform.machine()}, {platform.processor() or 'cpu'}, "
-                f"Python {platform.python_version()}",
-                "records": records,
-            },
-            indent=1,
-        )
-    )
+    write_record(OUT, {"commit": commit_of(source), "records": records})
     return 0
 
 
