@@ -403,9 +403,9 @@ def convex_contacts_for_pairs(
         towards a.
     depths : (c,) float64
         The pair's penetration depth along the normal for its deepest contacts (those within
-        a tie tolerance of the deepest), less for the others by as much as their corners lie
-        above the deepest (a corner within the margin above the other body: a gap): > 0
-        penetration, < 0 a gap within the speculative margin.
+        ``speculative`` of the thinner body's thickness of the deepest), less for the others
+        by as much as their corners lie above the deepest (a corner within the margin above
+        the other body: a gap): > 0 penetration, < 0 a gap within the speculative margin.
     faces : (c, 2) int64
         -1: hull faces are not mesh triangles.
     features : (c,) int64
@@ -509,12 +509,14 @@ def convex_contacts_for_pairs(
         wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
         wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
         wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
-        # The contacts as deep as the deepest (within ``flat``: faces pressed flat on each
-        # other) carry the pair's depth (its exact penetration, or minus its gap), so that
-        # a resting face's corners are alike to the bit; the others less by as much as
-        # their corners lie above the deepest: a corner the margin kept above the other
-        # body is a gap the solver lets close, not a support (a tilted plate would rest
-        # on its raised edge).
+        # The contacts as deep as the deepest, to a thousandth of the thinner body (the
+        # speculative fraction; a face resting on a face, rocking by less), carry the
+        # pair's depth (its exact penetration, or minus its gap), so that a resting face's
+        # corners are alike to the bit; the others less by as much as their corners lie
+        # above the deepest: a corner that only the step's reach kept, higher above the
+        # other body than that, is a gap the solver lets close, not a support (a thin
+        # plate tilted on the floor would rest on its raised edge).
+        level = max(flat, speculative * min(thicknesses[ha], thicknesses[hb]))
         deepest = -np.inf
         for r in range(c, c + count):
             deepest = max(deepest, out_depths[r])
@@ -522,7 +524,7 @@ def convex_contacts_for_pairs(
             body_a[r], body_b[r] = i, j
             out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz
             above = deepest - out_depths[r]
-            out_depths[r] = -separation if above <= flat else -separation - above
+            out_depths[r] = -separation if above <= level else -separation - above
         c += count
 
     order = np.argsort(new_keys)
