@@ -200,7 +200,10 @@ def check_against_oracle(pair):
         assert depth - tolerance <= depths.max() <= -faces_apart + tolerance
         # the normal is checked where the best axis over all is an outward face normal
         unique &= -faces_apart <= depth + tolerance
-    assert (depths <= depths.max()).all()  # the deepest carries the pair's depth
+    # corners within the margin's fraction of the thinner body of the deepest carry the
+    # pair's depth to the bit; a contact less deep lies above the deepest by more than that
+    below = depths.max() - depths
+    assert ((below == 0.0) | (below > margin - tolerance)).all()
     assert (depths >= -margin - tolerance).all()
     n = contacts["normals"]
     np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
@@ -358,7 +361,9 @@ def test_convex_path_agrees_with_fcl_convex(pair):
     # fcl itself is right (ours is checked against the exact oracle everywhere)
     assume(abs(theirs.penetration_depth - depth) <= tolerance)
     # fcl's normal points from the first object to the second: ours from B to A
-    assert abs(theirs.penetration_depth - ours["depths"].max()) <= 2 * tolerance
+    # fcl is within its tolerance of the exact depth (assumed above), ours within 1e-9 of the
+    # size (check_against_oracle)
+    assert abs(theirs.penetration_depth - ours["depths"].max()) <= tolerance + 1e-9 * pair.size
     assert float(-np.asarray(theirs.normal) @ ours["normals"][0]) >= math.cos(1e-3)
 
 

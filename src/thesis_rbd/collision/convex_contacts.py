@@ -200,7 +200,7 @@ def _gather_loop(H, h, face, R, t, out):
 
 @njit
 def _face_manifold(
-    H, ha, hb, kind, reference_face, R, t, margin, tolerance, flat,
+    H, ha, hb, kind, reference_face, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
     Ri, ti, out_points, out_depths, out_features, c,
 ):  # fmt: skip
@@ -208,10 +208,11 @@ def _face_manifold(
 
     ``kind`` is FACE_A (reference face on A) or FACE_B; (R, t) maps B into A's frame and
     (Ri, ti) A into the world. The incident face is kept up to ``margin`` above the
-    reference plane; each contact's depth is its corner's depth below that plane (negative
-    above it). Of more than four corners, the deepest and the three that span the largest
-    area with it are kept (``four_corners``); corners less deep than the deepest by at most
-    ``flat`` are as deep for that choice.
+    reference plane; where none of it is, the incident hull's deepest vertex is the one
+    contact, unless the pair is ``apart`` (then there is none). Each contact's depth is its
+    corner's depth below that plane (negative above it). Of more than four corners, the
+    deepest and the three that span the largest area with it are kept (``four_corners``);
+    corners less deep than the deepest by at most ``flat`` are as deep for that choice.
     """
     planes, face_start = H[8], H[7]
     eye = np.eye(3)
@@ -253,6 +254,11 @@ def _face_manifold(
         spare, spare_tags, labels, spare_labels, depths,
     )  # fmt: skip
     if count == 0:
+        if apart:
+            # no corner of the incident face within the margin over the reference face: the
+            # other body's nearest vertex lies beside that face, possibly far from it, so
+            # there is no speculative contact
+            return 0, nx, ny, nz
         # no corner of the incident face below the lifted plane: the incident hull's
         # deepest vertex (its support against the reference normal) is the contact
         count = 1
@@ -468,6 +474,7 @@ def convex_contacts_for_pairs(
             continue
         tolerance = _TIE * (sizes[ha] + sizes[hb])
         flat = _FLAT * (sizes[ha] + sizes[hb])
+        apart = separation > 0.0
         count = 0
         if kind == EDGES:
             # an edge axis within a small angle of a face beside the edges (a face hanging
@@ -476,14 +483,14 @@ def convex_contacts_for_pairs(
             face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
             if face_kind:
                 count, _, _, _ = _face_manifold(
-                    H, ha, hb, face_kind, face, R, t, margin, tolerance, flat, reference,
-                    incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
-                    keep, Ra, ta, out_points, out_depths, out_features, c,
+                    H, ha, hb, face_kind, face, R, t, margin, apart, tolerance, flat,
+                    reference, incident, points, tags, spare, spare_tags, labels,
+                    spare_labels, depths, keep, Ra, ta, out_points, out_depths, out_features, c,
                 )  # fmt: skip
             if count == 0:
                 count = 1
                 gap2 = _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
-                if separation > 0.0 and gap2 > (margin + tolerance) ** 2:
+                if apart and gap2 > (margin + tolerance) ** 2:
                     # apart along the edges' axis by at most the margin, but the segments
                     # themselves are further apart (their lines pass close elsewhere): no
                     # speculative contact
@@ -494,15 +501,10 @@ def convex_contacts_for_pairs(
             nx, ny, nz = -ux, -uy, -uz
         else:
             count, nx, ny, nz = _face_manifold(
-                H, ha, hb, kind, fi, R, t, margin, tolerance, flat, reference, incident, points,
-                tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta, out_points,
-                out_depths, out_features, c,
+                H, ha, hb, kind, fi, R, t, margin, apart, tolerance, flat, reference, incident,
+                points, tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta,
+                out_points, out_depths, out_features, c,
             )  # fmt: skip
-            if separation > 0.0 and count == 1 and tags[0] == _DEEPEST_VERTEX_TAG:
-                # apart, and no corner of the incident face within the margin over the
-                # reference face: the other body's nearest vertex lies beside that face,
-                # possibly far from it, so no speculative contact (as for edges above)
-                count = 0
             # against A's outward face normal, along B's
             if kind == FACE_A:
                 nx, ny, nz = -nx, -ny, -nz
