@@ -87,6 +87,10 @@ _FLAT = 1e-5
 _PARALLEL_COSINE = math.cos(1e-2)
 # Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
 _DEEPEST_VERTEX_TAG = (1 << 21) - 1
+# A's own frame for _gather_loop: module constants, which numba compiles in, so the face
+# manifold allocates nothing per pair
+_IDENTITY = np.eye(3)
+_ORIGIN = np.zeros(3)
 _FACE_BITS = 20
 _FACE_MASK = (1 << _FACE_BITS) - 1
 
@@ -215,8 +219,6 @@ def _face_manifold(
     corners less deep than the deepest by at most ``flat`` are as deep for that choice.
     """
     planes, face_start = H[8], H[7]
-    eye = np.eye(3)
-    zero = np.zeros(3)
     if kind == FACE_A:
         inc_hull = hb
         f = face_start[ha] + reference_face
@@ -226,7 +228,7 @@ def _face_manifold(
         my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
         mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
         incident_face = _incident_face(H, hb, mx, my, mz, 0)
-        k = _gather_loop(H, ha, reference_face, eye, zero, reference)
+        k = _gather_loop(H, ha, reference_face, _IDENTITY, _ORIGIN, reference)
         m = _gather_loop(H, hb, incident_face, R, t, incident)
     else:
         inc_hull = ha
@@ -238,7 +240,7 @@ def _face_manifold(
         d = planes[f, 3] + nx * t[0] + ny * t[1] + nz * t[2]
         incident_face = _incident_face(H, ha, -nx, -ny, -nz, 0)
         k = _gather_loop(H, hb, reference_face, R, t, reference)
-        m = _gather_loop(H, ha, incident_face, eye, zero, incident)
+        m = _gather_loop(H, ha, incident_face, _IDENTITY, _ORIGIN, incident)
     # the incident face's normal (A's frame) against the reference normal
     g = face_start[inc_hull] + incident_face
     mx, my, mz = planes[g, 0], planes[g, 1], planes[g, 2]
