@@ -24,6 +24,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts_for_pairs,
     empty_cache,
+    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 
@@ -78,12 +79,15 @@ class Pair:
 
     def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION):
         cache = empty_cache() if cache is None else cache
-        out = convex_contacts_for_pairs(
-            np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self.position, self.orientation, np.zeros((2, 3)), *cache, speculative, 0.0,
+        found, new_cache = split_contacts(
+            *convex_contacts_for_pairs(
+                np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(),
+                self.hulls.longest_loop, self.position, self.orientation, np.zeros((2, 3)),
+                *cache, speculative, 0.0,
+            )
         )  # fmt: skip
         keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
-        return dict(zip(keys, out[:7], strict=False)), out[7:]
+        return dict(zip(keys, found, strict=True)), new_cache
 
 
 def placed_pair(mesh_a, mesh_b, rotation_a, rotation_b, direction, depth_fraction, scale):

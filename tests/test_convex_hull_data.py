@@ -8,7 +8,13 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull as ScipyHull
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.convex_hull_data import HullSet, convex_hull, is_convex
+from thesis_rbd.collision.convex_hull_data import (
+    _FIELDS,
+    HullSet,
+    convex_hull,
+    is_convex,
+    unpack_hulls,
+)
 
 
 def random_hull_mesh(seed, count):
@@ -130,8 +136,13 @@ def test_hull_set_shares_hulls_and_marks_non_convex_meshes():
     assert hulls.hull_of(ball) == 1
     assert hulls.hull_of(cube) == 0
     assert hulls.hull_of(torus) == -1
-    arrays = hulls.arrays()
-    assert len(arrays) == 18
+    # the packed arrays unpack to the fields, in the kernels' order
+    unpacked = unpack_hulls(hulls.arrays())
+    assert len(unpacked) == 20
+    for name, value in zip(_FIELDS, unpacked, strict=True):
+        np.testing.assert_array_equal(value, getattr(hulls, name))
+    # the cube is a box, the ball is not
+    assert (hulls.box_features[0] >= 0).all() and (hulls.box_features[1] == -1).all()
     assert hulls.vertex_start.tolist() == [0, 8, 170]
     assert hulls.face_start.tolist() == [0, 6, 326]
     assert hulls.longest_loop == 4

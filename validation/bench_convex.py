@@ -28,6 +28,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts_for_pairs,
     empty_cache,
+    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -67,16 +68,22 @@ class RestingPairs:
             [self.trees.geometry_of(floor)] + [self.trees.geometry_of(body)] * count, np.int64
         )
         self.cache = empty_cache()
-        self.cache = self.convex()[7:]
+        self.cache = self._convex()[1]
 
     def state(self):
         return self.position, self.orientation, self.center_of_mass_local
 
-    def convex(self):
-        return convex_contacts_for_pairs(
-            self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            *self.state(), *self.cache, SPECULATIVE_FRACTION, REACH,
+    def _convex(self):
+        return split_contacts(
+            *convex_contacts_for_pairs(
+                self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+                *self.state(), *self.cache, SPECULATIVE_FRACTION, REACH,
+            )
         )  # fmt: skip
+
+    def convex(self):
+        """The contacts, unpacked as the world's narrow phase unpacks them."""
+        return self._convex()[0]
 
     def mesh(self):
         return contacts_for_pairs(self.pairs, self.tree_of_body, self.trees.arrays(), *self.state())

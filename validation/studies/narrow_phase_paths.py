@@ -83,6 +83,7 @@ class _Scene:
         from thesis_rbd.collision.convex_hull_data import HullSet
 
         self._convex_kernel = convex_contacts.convex_contacts_for_pairs
+        self._split = convex_contacts.split_contacts
         self._speculative = convex_contacts.SPECULATIVE_FRACTION
         self._empty_cache = convex_contacts.empty_cache
         self._mesh_kernel = narrow_phase.contacts_for_pairs
@@ -118,24 +119,27 @@ class _Scene:
         self.hull_of_body = np.array([self.hulls.hull_of(m) for m in self.meshes], np.int64)
         self.tree_of_body = np.array([self.trees.geometry_of(m) for m in self.meshes], np.int64)
         self.cache = self._empty_cache()
-        self.cache = self.convex_warm()[7:]
+        self.cache = self._convex(self.cache)[1]
 
     def world(self, body: int) -> np.ndarray:
         R = Rotation.from_quat(self.orientation[body]).as_matrix()
         return self.meshes[body].vertices @ R.T + self.position[body]
 
     def _convex(self, cache):
-        return self._convex_kernel(
-            self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self.position, self.orientation, self.center_of_mass_local, *cache,
-            self._speculative, 0.0,
+        """(contacts, new cache), unpacked as the world's narrow phase unpacks them."""
+        return self._split(
+            *self._convex_kernel(
+                self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+                self.position, self.orientation, self.center_of_mass_local, *cache,
+                self._speculative, 0.0,
+            )
         )  # fmt: skip
 
     def convex_warm(self):
-        return self._convex(self.cache)
+        return self._convex(self.cache)[0]
 
     def convex_cold(self):
-        return self._convex(self._empty_cache())
+        return self._convex(self._empty_cache())[0]
 
     def mesh(self):
         return self._mesh_kernel(

@@ -38,11 +38,15 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
 from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_query, support_vertex
+from thesis_rbd.collision.convex_hull_data import unpack_hulls
 from thesis_rbd.collision.convex_manifold import (
+    DEEPEST_VERTEX_TAG,
     clip_incident_face,
     edge_contact_point,
-    four_corners,
+    emit_face_contacts,
+    feature_id,
 )
 from thesis_rbd.collision.convex_sat import EDGES, FACE_A, FACE_B, place_hull, sat_query
 from thesis_rbd.spatial.quaternion import to_matrix_into
@@ -55,6 +59,7 @@ __all__ = [
     "empty_cache",
     "feature_id",
     "pair_key",
+    "split_contacts",
 ]
 
 # Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
@@ -85,14 +90,10 @@ _FLAT = 1e-5
 # Incident faces this close to parallel with the reference face (cosine) are clipped at the
 # reference plane too; tilted ones keep only their corners below it
 _PARALLEL_COSINE = math.cos(1e-2)
-# Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
-_DEEPEST_VERTEX_TAG = (1 << 21) - 1
 # A's own frame for _gather_loop: module constants, which numba compiles in, so the face
 # manifold allocates nothing per pair
 _IDENTITY = np.eye(3)
 _ORIGIN = np.zeros(3)
-_FACE_BITS = 20
-_FACE_MASK = (1 << _FACE_BITS) - 1
 
 
 def empty_cache() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -104,17 +105,6 @@ def empty_cache() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def pair_key(i, j):
     """Cache key of body pair (i, j)."""
     return (np.int64(i) << 32) | np.int64(j)
-
-
-@njit
-def feature_id(kind, first, second, tag):
-    """Feature id of a contact: kind (2 bits), two face or edge indices (20 bits each), tag."""
-    return (
-        (np.int64(kind) << 61)
-        | ((np.int64(first) & _FACE_MASK) << 41)
-        | ((np.int64(second) & _FACE_MASK) << 21)
-        | np.int64(tag)
-    )
 
 
 @njit
@@ -142,8 +132,7 @@ def _relative_frame(Ra, ta, Rb, tb, R, t):
 def _incident_face(H, h, mx, my, mz, start_vertex):
     """Face of hull h whose outward normal is most nearly along (mx, my, mz) (hull frame):
     a scan over all faces of a small hull, the faces around the support vertex otherwise."""
-    (vertex_start, vertices, neighbor_start, neighbors, _, vertex_face_start, vertex_faces,
-     face_start, planes, _, _, _, _, _, _, _, _, _) = H  # fmt: skip
+    face_start, planes = H[7], H[8]
     f0, f1 = face_start[h], face_start[h + 1]
     best, best_face = -np.inf, 0
     if f1 - f0 <= _SCAN_FACES:
@@ -152,6 +141,8 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
             if s > best:
                 best, best_face = s, f - f0
         return best_face
+    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    vertex_face_start, vertex_faces = H[5], H[6]
     v0 = vertex_start[h]
     v = support_vertex(
         vertices[v0 : vertex_start[h + 1]], neighbor_start[v0 : vertex_start[h + 1] + 1],
@@ -264,53 +255,12 @@ def _face_manifold(
         # no corner of the incident face below the lifted plane: the incident hull's
         # deepest vertex (its support against the reference normal) is the contact
         count = 1
-        tags[0] = _DEEPEST_VERTEX_TAG
+        tags[0] = DEEPEST_VERTEX_TAG
         _deepest_vertex(H, inc_hull, kind, R, t, nx, ny, nz, points)
-    # drop corners that repeat their predecessor (a vertex on a clip plane)
-    kept = 0
-    for q in range(count):
-        if kept > 0:
-            gap = (
-                abs(points[q, 0] - points[kept - 1, 0])
-                + abs(points[q, 1] - points[kept - 1, 1])
-                + abs(points[q, 2] - points[kept - 1, 2])
-            )
-            if gap <= tolerance:
-                continue
-        points[kept] = points[q]
-        tags[kept] = tags[q]
-        kept += 1
-    while kept > 1 and (
-        abs(points[kept - 1, 0] - points[0, 0])
-        + abs(points[kept - 1, 1] - points[0, 1])
-        + abs(points[kept - 1, 2] - points[0, 2])
-        <= tolerance
-    ):
-        kept -= 1
-    for q in range(kept):
-        depths[q] = d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2])
-    n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
-    # Out in the order of their feature ids, not from the deepest corner on: which corner of
-    # a flat face is deepest is decided by rounding, and the contact solver sweeps contacts
-    # in order, so the same contacts must come out in the same order (the same stack placed
-    # far from the origin then steps as at the origin, up to rounding).
-    for r in range(1, n_keep):
-        q = keep[r]
-        s = r
-        while s > 0 and tags[keep[s - 1]] > tags[q]:
-            keep[s] = keep[s - 1]
-            s -= 1
-        keep[s] = q
-    for r in range(n_keep):
-        q = keep[r]
-        half = 0.5 * depths[q]
-        px = points[q, 0] + half * nx
-        py = points[q, 1] + half * ny
-        pz = points[q, 2] + half * nz
-        for a in range(3):
-            out_points[c + r, a] = Ri[a, 0] * px + Ri[a, 1] * py + Ri[a, 2] * pz + ti[a]
-        out_depths[c + r] = depths[q]
-        out_features[c + r] = feature_id(kind, reference_face, incident_face, tags[q])
+    n_keep = emit_face_contacts(
+        points, tags, depths, count, nx, ny, nz, d, kind, reference_face, incident_face,
+        tolerance, flat, keep, Ri, ti, out_points, out_depths, out_features, c,
+    )  # fmt: skip
     return n_keep, nx, ny, nz
 
 
@@ -320,10 +270,12 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, ma
     for separations up to ``margin``.
 
     Pairs of few edges go through the separating-axis test, testing the cached feature
-    first; others through GJK and EPA, starting from the cached axis.
+    first; others through GJK and EPA, starting from the cached axis. (Two boxes take the
+    closed form, ``box_box_query``, called by the caller: this function's unpacking of the
+    hull arrays alone costs a box pair's whole test.)
     """
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
-     edge_faces, edge_arcs, centroids, sizes, _) = H  # fmt: skip
+     edge_faces, edge_arcs, centroids, sizes, _, _, _) = H  # fmt: skip
     placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch
     tie = _TIE * (sizes[ha] + sizes[hb])
     ea0, ea1 = edge_start[ha], edge_start[ha + 1]
@@ -379,8 +331,8 @@ def convex_contacts_for_pairs(
         Candidate body pairs [i, j]; both bodies convex.
     hull_of_body : (n,) int64
         Hull index of each body (``HullSet.hull_of``).
-    hull_arrays : tuple
-        ``HullSet.arrays()``.
+    hull_arrays : (ints, floats)
+        ``HullSet.arrays()``: the packed hull set.
     longest_loop : int
         ``HullSet.longest_loop``: most corners of any face.
     position, orientation, center_of_mass_local : (n, 3), (n, 4), (n, 3) float64
@@ -404,6 +356,8 @@ def convex_contacts_for_pairs(
 
     Returns
     -------
+    ints, floats : (1 + 5 c + 4 p,) int64 and (7 c + 3 p,) float64
+        Everything below, packed; ``split_contacts`` gives it back as arrays.
     body_a, body_b : (c,) int64
         The pair of each contact (a = i, b = j).
     points, normals : (c, 3) float64
@@ -421,8 +375,8 @@ def convex_contacts_for_pairs(
     cache_keys, cache_features, cache_axes : (p,), (p, 3), (p, 3)
         The new cache: a row per pair, sorted by key.
     """
-    H = hull_arrays
-    sizes, thicknesses = H[16], H[17]
+    H = unpack_hulls(hull_arrays)
+    sizes, thicknesses, box_frames, box_features = H[16], H[17], H[18], H[19]
     p = pairs.shape[0]
     scratch = _query_scratch(H)
     corners = 2 * longest_loop + 2
@@ -467,9 +421,14 @@ def convex_contacts_for_pairs(
         _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
         _relative_frame(Ra, ta, Rb, tb, R, t)
         margin = max(speculative * min(thicknesses[ha], thicknesses[hb]), reach)
-        kind, fi, fj, separation, ux, uy, uz = _pair_query(
-            H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch
-        )
+        if box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0:
+            kind, fi, fj, separation, ux, uy, uz = box_box_query(
+                box_frames, box_features, ha, hb, R, t, _TIE * (sizes[ha] + sizes[hb])
+            )
+        else:
+            kind, fi, fj, separation, ux, uy, uz = _pair_query(
+                H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch
+            )
         new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
         if separation > margin:
@@ -502,11 +461,19 @@ def convex_contacts_for_pairs(
             # the normal runs from B towards A: against the axis
             nx, ny, nz = -ux, -uy, -uz
         else:
-            count, nx, ny, nz = _face_manifold(
-                H, ha, hb, kind, fi, R, t, margin, apart, tolerance, flat, reference, incident,
-                points, tags, spare, spare_tags, labels, spare_labels, depths, keep, Ra, ta,
-                out_points, out_depths, out_features, c,
-            )  # fmt: skip
+            if box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0:
+                count, nx, ny, nz = box_face_contacts(
+                    box_frames, box_features, ha, hb, kind, fi, R, t, margin, apart,
+                    tolerance, flat, reference, incident, points, tags, spare, spare_tags,
+                    labels, spare_labels, depths, keep, Ra, ta, out_points, out_depths,
+                    out_features, c,
+                )  # fmt: skip
+            else:
+                count, nx, ny, nz = _face_manifold(
+                    H, ha, hb, kind, fi, R, t, margin, apart, tolerance, flat, reference,
+                    incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
+                    keep, Ra, ta, out_points, out_depths, out_features, c,
+                )  # fmt: skip
             # against A's outward face normal, along B's
             if kind == FACE_A:
                 nx, ny, nz = -nx, -ny, -nz
@@ -531,12 +498,48 @@ def convex_contacts_for_pairs(
             out_depths[r] = -separation if above <= level else -separation - above
         c += count
 
+    # packed into two arrays (see ``split_contacts``): each array a kernel returns costs
+    # about a microsecond to hand to Python, a small scene's whole narrow phase
     order = np.argsort(new_keys)
-    return (
-        body_a[:c].copy(), body_b[:c].copy(), out_points[:c].copy(), out_normals[:c].copy(),
-        out_depths[:c].copy(), np.full((c, 2), -1, np.int64), out_features[:c].copy(),
-        new_keys[order], new_features[order], new_axes[order],
+    ints = np.empty(1 + 5 * c + 4 * p, np.int64)
+    floats = np.empty(7 * c + 3 * p)
+    ints[0] = c
+    for r in range(c):
+        ints[1 + r] = body_a[r]
+        ints[1 + c + r] = body_b[r]
+        ints[1 + 2 * c + r] = out_features[r]
+        ints[1 + 3 * c + 2 * r] = -1
+        ints[2 + 3 * c + 2 * r] = -1
+        for a in range(3):
+            floats[3 * r + a] = out_points[r, a]
+            floats[3 * c + 3 * r + a] = out_normals[r, a]
+        floats[6 * c + r] = out_depths[r]
+    for m in range(p):
+        q = order[m]
+        ints[1 + 5 * c + m] = new_keys[q]
+        for a in range(3):
+            ints[1 + 5 * c + p + 3 * m + a] = new_features[q, a]
+            floats[7 * c + 3 * m + a] = new_axes[q, a]
+    return ints, floats
+
+
+def split_contacts(ints: np.ndarray, floats: np.ndarray) -> tuple[tuple, tuple]:
+    """The contacts and the new cache from ``convex_contacts_for_pairs``'s packed output,
+    as contiguous views: ((body_a, body_b, points, normals, depths, faces, features),
+    (cache_keys, cache_features, cache_axes))."""
+    c = int(ints[0])
+    p = (len(floats) - 7 * c) // 3
+    contacts = (
+        ints[1 : 1 + c], ints[1 + c : 1 + 2 * c], floats[: 3 * c].reshape(c, 3),
+        floats[3 * c : 6 * c].reshape(c, 3), floats[6 * c : 7 * c],
+        ints[1 + 3 * c : 1 + 5 * c].reshape(c, 2), ints[1 + 2 * c : 1 + 3 * c],
     )  # fmt: skip
+    cache = (
+        ints[1 + 5 * c : 1 + 5 * c + p],
+        ints[1 + 5 * c + p :].reshape(p, 3),
+        floats[7 * c :].reshape(p, 3),
+    )
+    return contacts, cache
 
 
 @njit

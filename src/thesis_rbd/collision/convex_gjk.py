@@ -102,7 +102,7 @@ def _keep(P, ia, ib, rows, count):
     for k in range(count):
         r = rows[k]
         if r != k:
-            P[k] = P[r]
+            P[k, 0], P[k, 1], P[k, 2] = P[r, 0], P[r, 1], P[r, 2]
             ia[k] = ia[r]
             ib[k] = ib[r]
     return count
@@ -313,7 +313,7 @@ def _epa(H, ha, hb, R, t, P, ia, ib, scratch, tolerance):
     """
     V, va, vb, faces, planes, alive, horizon = scratch[:7]
     for k in range(4):
-        V[k] = P[k]
+        V[k, 0], V[k, 1], V[k, 2] = P[k, 0], P[k, 1], P[k, 2]
         va[k] = ia[k]
         vb[k] = ib[k]
     cx = 0.25 * (V[0, 0] + V[1, 0] + V[2, 0] + V[3, 0])
@@ -420,7 +420,7 @@ def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie, px, py, pz):
     """
     (vertex_start, vertices, neighbor_start, neighbors, neighbor_edges, vertex_face_start,
      vertex_faces, face_start, planes, _, _, edge_start, edges, edge_faces, edge_arcs,
-     centroids, _, _) = H  # fmt: skip
+     centroids, _, _, _, _) = H  # fmt: skip
     a0, b0 = vertex_start[ha], vertex_start[hb]
     fa0, fb0 = face_start[ha], face_start[hb]
     ea0, eb0 = edge_start[ha], edge_start[hb]
@@ -523,7 +523,7 @@ def _distinct(a, b, c):
 def _sat_fallback(H, ha, hb, R, t, tie, margin):
     """The separating-axis test on a pair GJK or EPA could not settle (touching, flat)."""
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
-     edge_faces, edge_arcs, centroids, _, _) = H  # fmt: skip
+     edge_faces, edge_arcs, centroids, _, _, _, _) = H  # fmt: skip
     va0, va1 = vertex_start[ha], vertex_start[ha + 1]
     vb0, vb1 = vertex_start[hb], vertex_start[hb + 1]
     fa0, fa1 = face_start[ha], face_start[ha + 1]

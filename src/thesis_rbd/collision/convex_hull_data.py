@@ -29,9 +29,17 @@ from scipy.spatial import ConvexHull as _Qhull
 from scipy.spatial import QhullError
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.convex_box import box_frame
 from thesis_rbd.geometry.width import hull_thickness
 
-__all__ = ["CONVEXITY_TOLERANCE", "ConvexHull", "HullSet", "convex_hull", "is_convex"]
+__all__ = [
+    "CONVEXITY_TOLERANCE",
+    "ConvexHull",
+    "HullSet",
+    "convex_hull",
+    "is_convex",
+    "unpack_hulls",
+]
 
 # A vertex may lie this far inside its hull, and the mesh's volume this far below the hull's,
 # relative to the mesh's size (its bounding-box diagonal, or its cube): float32 exports of
@@ -285,6 +293,9 @@ class HullSet:
     edge_arcs : (E, 3) float64
         n2 x n1 for the normals n1, n2 of an edge's two faces: the normal of its Gauss arc.
     centroids : (h, 3) float64, sizes : (h,) float64 and thicknesses : (h,) float64
+    box_frames : (h, 5, 3) float64 and box_features : (h, 18) int64
+        Each hull's box axes, centre and half extents and its faces and edges by box axis
+        (``convex_box``); features -1 for a hull that is not a box.
     """
 
     def __init__(self, tolerance: float = CONVEXITY_TOLERANCE):
@@ -352,28 +363,98 @@ class HullSet:
         self.centroids = stacked([h.centroid[None] for h in hulls], (3,), np.float64)
         self.sizes = np.array([h.size for h in hulls], dtype=np.float64)
         self.thicknesses = np.array([h.thickness for h in hulls], dtype=np.float64)
+        boxes = [box_frame(h.vertices, h.planes, h.edges, h.size) for h in hulls]
+        self.box_frames = stacked(
+            [np.zeros((1, 5, 3)) if box is None else box[0][None] for box in boxes],
+            (5, 3),
+            np.float64,
+        )
+        self.box_features = stacked(
+            [np.full((1, 18), -1, np.int64) if box is None else box[1][None] for box in boxes],
+            (18,),
+            np.int64,
+        )
         loops_per_face = np.diff(self.loop_start)
         self.longest_loop = int(loops_per_face.max()) if len(loops_per_face) else 0
+        self._packed = _pack_fields(self)
 
-    def arrays(self) -> tuple:
-        """The flat arrays in the order the convex kernels take them."""
-        return (
-            self.vertex_start,
-            self.vertices,
-            self.neighbor_start,
-            self.neighbors,
-            self.neighbor_edges,
-            self.vertex_face_start,
-            self.vertex_faces,
-            self.face_start,
-            self.planes,
-            self.loop_start,
-            self.loops,
-            self.edge_start,
-            self.edges,
-            self.edge_faces,
-            self.edge_arcs,
-            self.centroids,
-            self.sizes,
-            self.thicknesses,
-        )
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hull set packed for the convex kernels: (ints, floats), two flat arrays that
+        ``unpack_hulls`` turns back into the fields (one argument each would cost every
+        kernel call a conversion per field: more than a small scene's whole narrow phase)."""
+        return self._packed
+
+
+_FIELDS = (
+    "vertex_start", "vertices", "neighbor_start", "neighbors", "neighbor_edges",
+    "vertex_face_start", "vertex_faces", "face_start", "planes", "loop_start", "loops",
+    "edge_start", "edges", "edge_faces", "edge_arcs", "centroids", "sizes", "thicknesses",
+    "box_frames", "box_features",
+)  # fmt: skip
+# Header of the packed ints: per field, its offset into its own array (ints or floats) and
+# up to three dimensions
+_HEADER = 4 * len(_FIELDS)
+
+
+def _pack_fields(hulls: HullSet) -> tuple[np.ndarray, np.ndarray]:
+    """(ints, floats): ``_HEADER`` ints describing the fields, then the int fields' values;
+    the float fields' values."""
+    header = np.zeros(_HEADER, np.int64)
+    parts: dict[type, list[np.ndarray]] = {np.int64: [], np.float64: []}
+    used = {np.int64: _HEADER, np.float64: 0}
+    for k, name in enumerate(_FIELDS):
+        value = getattr(hulls, name)
+        kind = np.int64 if value.dtype.kind == "i" else np.float64
+        header[4 * k] = used[kind]
+        header[4 * k + 1 : 4 * k + 1 + value.ndim] = value.shape
+        parts[kind].append(value.ravel().astype(kind))
+        used[kind] += value.size
+    ints = np.concatenate([header, *parts[np.int64]])
+    floats = np.concatenate([np.zeros(0), *parts[np.float64]])
+    return ints, floats
+
+
+@njit
+def _int_field(ints, k):
+    o, n = ints[4 * k], ints[4 * k + 1]
+    return ints[o : o + n]
+
+
+@njit
+def _int_rows(ints, k):
+    o, n, m = ints[4 * k], ints[4 * k + 1], ints[4 * k + 2]
+    return ints[o : o + n * m].reshape((n, m))
+
+
+@njit
+def _float_field(ints, floats, k):
+    o, n = ints[4 * k], ints[4 * k + 1]
+    return floats[o : o + n]
+
+
+@njit
+def _float_rows(ints, floats, k):
+    o, n, m = ints[4 * k], ints[4 * k + 1], ints[4 * k + 2]
+    return floats[o : o + n * m].reshape((n, m))
+
+
+@njit
+def _float_blocks(ints, floats, k):
+    o, n, m, r = ints[4 * k], ints[4 * k + 1], ints[4 * k + 2], ints[4 * k + 3]
+    return floats[o : o + n * m * r].reshape((n, m, r))
+
+
+@njit
+def unpack_hulls(packed):
+    """The fields of a packed hull set (``HullSet.arrays()``), as views, in ``_FIELDS``
+    order: the tuple the convex kernels index (``H[0]`` is ``vertex_start``, ...)."""
+    ints, floats = packed
+    return (
+        _int_field(ints, 0), _float_rows(ints, floats, 1), _int_field(ints, 2),
+        _int_field(ints, 3), _int_field(ints, 4), _int_field(ints, 5), _int_field(ints, 6),
+        _int_field(ints, 7), _float_rows(ints, floats, 8), _int_field(ints, 9),
+        _int_field(ints, 10), _int_field(ints, 11), _int_rows(ints, 12), _int_rows(ints, 13),
+        _float_rows(ints, floats, 14), _float_rows(ints, floats, 15),
+        _float_field(ints, floats, 16), _float_field(ints, floats, 17),
+        _float_blocks(ints, floats, 18), _int_rows(ints, 19),
+    )  # fmt: skip

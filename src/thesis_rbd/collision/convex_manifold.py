@@ -32,9 +32,12 @@ import numpy as np
 from thesis_rbd._jit import njit
 
 __all__ = [
+    "DEEPEST_VERTEX_TAG",
     "TAG_BITS",
     "clip_incident_face",
     "edge_contact_point",
+    "emit_face_contacts",
+    "feature_id",
     "four_corners",
 ]
 
@@ -45,6 +48,21 @@ TAG_BITS = 21
 _SIDE_LABEL = 512
 _LABEL_MASK = 511
 _TAG_MASK = (1 << TAG_BITS) - 1
+# Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
+DEEPEST_VERTEX_TAG = _TAG_MASK
+_FACE_BITS = 20
+_FACE_MASK = (1 << _FACE_BITS) - 1
+
+
+@njit
+def feature_id(kind, first, second, tag):
+    """Feature id of a contact: kind (2 bits), two face or edge indices (20 bits each), tag."""
+    return (
+        (np.int64(kind) << 61)
+        | ((np.int64(first) & _FACE_MASK) << 41)
+        | ((np.int64(second) & _FACE_MASK) << 21)
+        | np.int64(tag)
+    )
 
 
 @njit
@@ -109,7 +127,7 @@ def clip_incident_face(
         The contact polygon is ``points[:count]`` with ``tags[:count]`` (see ``TAG_BITS``).
     """
     for k in range(incident_count):
-        points[k] = incident[k]
+        points[k, 0], points[k, 1], points[k, 2] = incident[k, 0], incident[k, 1], incident[k, 2]
         tags[k] = k & _TAG_MASK
         labels[k] = k & _LABEL_MASK
     count = incident_count
@@ -152,7 +170,7 @@ def clip_incident_face(
         gap = nx * src[k, 0] + ny * src[k, 1] + nz * src[k, 2] - d
         if not parallel and gap > margin + tolerance:
             continue
-        points[kept] = src[k]
+        points[kept, 0], points[kept, 1], points[kept, 2] = src[k, 0], src[k, 1], src[k, 2]
         tags[kept] = src_tag[k]
         kept += 1
     return kept
@@ -288,3 +306,68 @@ def edge_contact_point(pa, qa, pb, qb):
     vx, vy, vz = pb[0] + t * d2x, pb[1] + t * d2y, pb[2] + t * d2z
     gap2 = (ux - vx) ** 2 + (uy - vy) ** 2 + (uz - vz) ** 2
     return 0.5 * (ux + vx), 0.5 * (uy + vy), 0.5 * (uz + vz), gap2
+
+
+@njit
+def emit_face_contacts(
+    points, tags, depths, count, nx, ny, nz, d, kind, reference_face, incident_face,
+    tolerance, flat, keep, Ri, ti, out_points, out_depths, out_features, c,
+):  # fmt: skip
+    """A face contact's corners ``points[:count]`` (tags ``tags``, the reference frame A's)
+    written out from row c: repeats dropped, at most four kept (``four_corners``, corners
+    within ``flat`` of the deepest as deep), in the order of their feature ids, each midway
+    between the surfaces and mapped into the world by (Ri, ti); returns how many.
+
+    The reference plane is n.x = d; a corner's depth is how far it lies below it.
+    ``depths`` (>= count,) and ``keep`` (4,) are scratch.
+    """
+    # drop corners that repeat their predecessor (a vertex on a clip plane)
+    kept = 0
+    for q in range(count):
+        if kept > 0:
+            gap = (
+                abs(points[q, 0] - points[kept - 1, 0])
+                + abs(points[q, 1] - points[kept - 1, 1])
+                + abs(points[q, 2] - points[kept - 1, 2])
+            )
+            if gap <= tolerance:
+                continue
+        points[kept, 0], points[kept, 1], points[kept, 2] = (
+            points[q, 0],
+            points[q, 1],
+            points[q, 2],
+        )
+        tags[kept] = tags[q]
+        kept += 1
+    while kept > 1 and (
+        abs(points[kept - 1, 0] - points[0, 0])
+        + abs(points[kept - 1, 1] - points[0, 1])
+        + abs(points[kept - 1, 2] - points[0, 2])
+        <= tolerance
+    ):
+        kept -= 1
+    for q in range(kept):
+        depths[q] = d - (nx * points[q, 0] + ny * points[q, 1] + nz * points[q, 2])
+    n_keep = four_corners(points, depths, kept, nx, ny, nz, flat, keep)
+    # Out in the order of their feature ids, not from the deepest corner on: which corner of
+    # a flat face is deepest is decided by rounding, and the contact solver sweeps contacts
+    # in order, so the same contacts must come out in the same order (the same stack placed
+    # far from the origin then steps as at the origin, up to rounding).
+    for r in range(1, n_keep):
+        q = keep[r]
+        s = r
+        while s > 0 and tags[keep[s - 1]] > tags[q]:
+            keep[s] = keep[s - 1]
+            s -= 1
+        keep[s] = q
+    for r in range(n_keep):
+        q = keep[r]
+        half = 0.5 * depths[q]
+        px = points[q, 0] + half * nx
+        py = points[q, 1] + half * ny
+        pz = points[q, 2] + half * nz
+        for a in range(3):
+            out_points[c + r, a] = Ri[a, 0] * px + Ri[a, 1] * py + Ri[a, 2] * pz + ti[a]
+        out_depths[c + r] = depths[q]
+        out_features[c + r] = feature_id(kind, reference_face, incident_face, tags[q])
+    return n_keep

@@ -86,10 +86,15 @@ def reduce_contacts(points, normals, depths, faces, tolerance):
             out_points[k, a] += points[i, a]
         if depths[i] > out_depths[k]:
             out_depths[k] = depths[i]
-            out_normals[k] = normals[i]
-            out_faces[k] = faces[i]
+            out_normals[k, 0], out_normals[k, 1], out_normals[k, 2] = (
+                normals[i, 0],
+                normals[i, 1],
+                normals[i, 2],
+            )
+            out_faces[k, 0], out_faces[k, 1] = faces[i, 0], faces[i, 1]
     for k in range(clusters):
-        out_points[k] /= members[k]
+        for a in range(3):
+            out_points[k, a] /= members[k]
     return out_points, out_normals, out_depths, out_faces
 
 
@@ -417,7 +422,11 @@ def region_manifolds(
         normals = np.empty((count, 3))
         depths = np.empty(count)
         for r in range(count):
-            normals[r] = region_normal[g]
+            normals[r, 0], normals[r, 1], normals[r, 2] = (
+                region_normal[g, 0],
+                region_normal[g, 1],
+                region_normal[g, 2],
+            )
             depths[r] = region_depth[g]
         pts, nrm, dep, fcs = reduce_contacts(
             candidates, normals, depths, candidate_faces, tolerance

@@ -27,6 +27,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts_for_pairs,
     empty_cache,
+    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
@@ -321,8 +322,8 @@ class CollisionPipeline:
         # the contact kernel decides without its speculative margin (overlap or touch), so
         # this answer and contacts_of agree; tunnelling and time-of-impact searches ask
         # about a few pairs only
-        if convex.any() and len(
-            convex_contacts_for_pairs(
+        if convex.any():
+            ints, _ = convex_contacts_for_pairs(
                 np.ascontiguousarray(pairs[convex]),
                 self.hull_of_body,
                 self._hull_arrays,
@@ -331,9 +332,9 @@ class CollisionPipeline:
                 *self.convex_cache,
                 0.0,
                 0.0,
-            )[4]
-        ):
-            return True
+            )
+            if ints[0] > 0:  # the count of contacts
+                return True
         if convex.all():
             return False
         return bool(
@@ -386,10 +387,12 @@ class CollisionPipeline:
 
     def _convex_contacts(self, pairs, state, keep_cache: bool) -> dict[str, np.ndarray]:
         """Contacts of convex pairs by the convex kernel, with its coherence cache."""
-        *found, cache_keys, cache_features, cache_axes = convex_contacts_for_pairs(
-            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
-            *self.convex_cache, SPECULATIVE_FRACTION, self._reach,
+        found, cache = split_contacts(
+            *convex_contacts_for_pairs(
+                pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
+                *self.convex_cache, SPECULATIVE_FRACTION, self._reach,
+            )
         )  # fmt: skip
         if keep_cache:
-            self.convex_cache = (cache_keys, cache_features, cache_axes)
+            self.convex_cache = cache
         return dict(zip(_CONTACT_KEYS, found, strict=True))

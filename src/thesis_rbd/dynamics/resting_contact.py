@@ -239,7 +239,8 @@ def solve_contacts(
             world_impulse[k, a] = (
                 lam[k, 0] * basis[k, 0, a] + lam[k, 1] * basis[k, 1, a] + lam[k, 2] * basis[k, 2, a]
             )
-        impulse[order[k]] = lam[k]
+        for d in range(3):
+            impulse[order[k], d] = lam[k, d]
     by_key = np.argsort(keys, kind="mergesort")
     new_keys = np.empty((c, 2), np.int64)
     new_values = np.empty((c, 6))
