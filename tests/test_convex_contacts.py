@@ -24,9 +24,11 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts_for_pairs,
     empty_cache,
+    pair_key,
     split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
+from thesis_rbd.collision.convex_sat import EDGES
 
 
 def random_hull_mesh(seed, count):
@@ -393,3 +395,43 @@ def test_coherence_cache_keeps_features_and_answers():
     assert len(apart["depths"]) == 0
     assert cache3[1][0, 0] == 1  # separated by A's top face
     np.testing.assert_allclose(cache3[2][0], [0, 0, 1.0])
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31), st.integers(0, 2**31))
+def test_a_stale_cached_edge_pair_does_not_hide_an_overlap(seed_a, seed_b):
+    """A cached edge pair is the last step's axis; two of its edges may lie far apart along
+    it while the hulls overlap deeply (they no longer build a Minkowski face): the answer
+    must be the one without a cache."""
+    rng = np.random.default_rng(seed_b)
+    mesh_a, mesh_b = random_hull_mesh(seed_a, 12), random_hull_mesh(seed_b, 12)
+    pose_b = (rng.normal(scale=0.3, size=3), Rotation.random(random_state=rng).as_quat())
+    pair = Pair(mesh_a, mesh_b, (np.zeros(3), np.array([0, 0, 0, 1.0])), pose_b)
+    depth = least_penetration(pair.points_a, pair.points_b)[0]
+    assume(depth > 0.05 * pair.size)
+    # an edge pair of A and B whose own distance along their axis says "apart"
+    hulls = pair.hulls
+    ea, eb = hulls.hulls[0].edges, hulls.hulls[1].edges
+    va, vb = pair.points_a, pair.points_b
+    centroid = va.mean(axis=0)
+    stale = None
+    for i, (ta, ha) in enumerate(ea):
+        for j, (tb, hb) in enumerate(eb):
+            u = np.cross(va[ha] - va[ta], vb[hb] - vb[tb])
+            if np.linalg.norm(u) < 1e-6:
+                continue
+            u /= np.linalg.norm(u)
+            if u @ (va[ta] - centroid) < 0:
+                u = -u
+            if u @ (vb[tb] - va[ta]) > 0.1 * pair.size:
+                stale = (i, j, u)
+                break
+        if stale is not None:
+            break
+    assume(stale is not None)
+    i, j, u = stale
+    cache = (np.array([pair_key(0, 1)]), np.array([[EDGES, i, j]]), u[None])
+    cold, _ = pair.contacts()
+    warm, _ = pair.contacts(cache)
+    assert len(warm["depths"]) == len(cold["depths"]) >= 1
+    np.testing.assert_allclose(warm["depths"], cold["depths"], atol=1e-12 * pair.size)
