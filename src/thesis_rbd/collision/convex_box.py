@@ -5,9 +5,11 @@ products), and each axis's separation follows from the boxes' half extents and t
 between their axes (Gottschalk's OBB test, here giving the separation instead of a yes/no):
 no vertex is visited, no edge pair pruned. The answer is the general test's (``sat_query``):
 the same kind of axis, the same hull face or edge indices, and the same separation up to
-round-off, so the manifold, the feature ids and the coherence cache do not know which test
-ran. A hull is a box when it has 8 vertices and 6 faces in three antiparallel pairs with
-mutually perpendicular normals, every vertex a corner of the box the faces bound.
+round-off. A face contact of two boxes (``box_face_contacts``) reads the reference and
+incident faces off the box frames instead of searching the hulls, and clips them as the
+general face manifold does. A hull is a box when it has 8 vertices and 6 faces in three
+antiparallel pairs with mutually perpendicular normals, every vertex a corner of the box
+the faces bound.
 
 Per hull, ``box_frames`` (h, 5, 3) holds the unit axes (rows 0-2: the outward normals of the
 box's +x, +y, +z faces), the centre (row 3) and the half extents (row 4), in the mesh frame;
