@@ -448,10 +448,11 @@ class World:
         """Refresh what depends on who sleeps: called whenever a body falls asleep or wakes.
 
         ``_frozen`` (n,) bool marks the bodies that do not move this step (static or asleep);
-        ``_awake`` says whether any body moves at all.
+        ``_awake`` says whether any body moves at all, ``_any_asleep`` whether any sleeps.
         """
         self._frozen = self.bodies.static | self._sleep.asleep
         self._awake = not bool(np.all(self._frozen))
+        self._any_asleep = self._sleep.any_asleep
 
     def _any_awake(self) -> bool:
         return self._awake
@@ -516,7 +517,7 @@ class World:
         """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
         the OBBTree); a touched sleeping island wakes."""
         self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
-        if self._sleep.any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
+        if self._any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
             self._sleep_changed()
             # the woken islands' own contacts were not candidates: find them now
             self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
