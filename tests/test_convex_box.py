@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from tests.test_convex_contacts import pairs
+from tests.test_convex_contacts import Pair, face_pairs, pairs
 from thesis_rbd.collision.convex_box import box_box_query
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.convex_sat import (
@@ -98,3 +98,34 @@ def test_boxes_are_found_and_other_hulls_are_not():
     assert (hulls.box_features[1] == -1).all()
     assert (hulls.box_features[2] >= 0).all()
     assert (hulls.box_features[3] == -1).all()
+
+
+def _contacts_of(pair, find_boxes):
+    """The pair's contacts with boxes in closed form, or every hull on the general path."""
+    general = Pair(*pair.meshes, *zip(pair.position, pair.orientation, strict=True))
+    general.hulls = HullSet(find_boxes=find_boxes)
+    general.hull_of_body = np.array([general.hulls.hull_of(m) for m in pair.meshes])
+    return general.contacts()[0]
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(face_pairs(), pairs(kinds=st.just("box"))))
+def test_box_contacts_equal_the_general_path(pair):
+    """Two boxes' contacts, closed form and face shortcut, against the general separating-axis
+    test and clip: the same depths and normals and the same points (in another order)."""
+    boxes = [m for m in pair.meshes if len(m.vertices) == 8]
+    if len(boxes) < 2:
+        return
+    fast, general = _contacts_of(pair, True), _contacts_of(pair, False)
+    assert len(fast["depths"]) == len(general["depths"])
+    if not len(fast["depths"]):
+        return
+    size = pair.size
+    np.testing.assert_allclose(
+        np.sort(fast["depths"]), np.sort(general["depths"]), atol=1e-9 * size
+    )
+    np.testing.assert_allclose(fast["normals"], general["normals"], atol=1e-9)
+    # the same corner set: every point of one has a partner in the other
+    gaps = np.linalg.norm(fast["points"][:, None] - general["points"][None], axis=2)
+    assert gaps.min(axis=1).max() <= 1e-9 * size
+    assert gaps.min(axis=0).max() <= 1e-9 * size

@@ -330,10 +330,15 @@ def box_face_contacts(
     incident_face = features[other, 2 * j + (1 if incident_sign > 0.0 else 0)]
     _face_corners(frames, other, j, incident_sign, R, t, not own_turned, incident)
     parallel = best >= _PARALLEL_COSINE
-    count = clip_incident_face(
-        reference, 4, nx, ny, nz, d, incident, 4, parallel, margin, tolerance, points, tags,
-        spare, spare_tags, labels, spare_labels, depths,
+    count = _lying_inside(
+        frames, own, k, R, t, own_turned, nx, ny, nz, d, incident, parallel, margin, tolerance,
+        points, tags,
     )  # fmt: skip
+    if count < 0:
+        count = clip_incident_face(
+            reference, 4, nx, ny, nz, d, incident, 4, parallel, margin, tolerance, points,
+            tags, spare, spare_tags, labels, spare_labels, depths,
+        )  # fmt: skip
     if count == 0:
         if apart:
             return 0, nx, ny, nz  # no speculative contact (see ``_face_manifold``)
@@ -351,3 +356,39 @@ def box_face_contacts(
         flat, keep, Ri, ti, out_points, out_depths, out_features, c,
     )  # fmt: skip
     return n_keep, nx, ny, nz
+
+
+@njit
+def _lying_inside(
+    frames, h, k, R, t, turned, nx, ny, nz, d, incident, parallel, margin, tolerance, points,
+    tags,
+):  # fmt: skip
+    """The contact polygon without clipping, where the incident face lies over the
+    reference face (box h's face along axis k, normal n, plane n.x = d) and no clip plane
+    cuts it: the common case of a box resting on a larger one. Its corners (tags 0-3, as
+    ``clip_incident_face`` tags unclipped corners) into ``points``; their count, or -1
+    where the general clip is needed (a corner beyond a side, or, for nearly parallel
+    faces, above the plane lifted by ``margin``).
+    """
+    k1, k2 = (k + 1) % 3, (k + 2) % 3
+    ax, ay, az = _axis(frames, h, k1, R, turned)
+    bx, by, bz = _axis(frames, h, k2, R, turned)
+    cx, cy, cz = _centre(frames, h, R, t, turned)
+    reach_a = frames[h, 4, k1] + tolerance
+    reach_b = frames[h, 4, k2] + tolerance
+    ceiling = margin + tolerance
+    count = 0
+    for q in range(4):
+        x, y, z = incident[q, 0], incident[q, 1], incident[q, 2]
+        if abs((x - cx) * ax + (y - cy) * ay + (z - cz) * az) > reach_a:
+            return -1
+        if abs((x - cx) * bx + (y - cy) * by + (z - cz) * bz) > reach_b:
+            return -1
+        if nx * x + ny * y + nz * z - d > ceiling:
+            if parallel:
+                return -1  # the lifted plane cuts the face: crossings to find
+            continue  # a tilted face keeps only its corners below the lifted plane
+        points[count, 0], points[count, 1], points[count, 2] = x, y, z
+        tags[count] = q
+        count += 1
+    return count

@@ -298,8 +298,10 @@ class HullSet:
         (``convex_box``); features -1 for a hull that is not a box.
     """
 
-    def __init__(self, tolerance: float = CONVEXITY_TOLERANCE):
+    def __init__(self, tolerance: float = CONVEXITY_TOLERANCE, find_boxes: bool = True):
         self.tolerance = tolerance
+        # False leaves every hull to the general convex path (the closed form's reference)
+        self.find_boxes = find_boxes
         self.hulls: list[ConvexHull] = []
         self._index: dict[int, int] = {}
         self._meshes: list = []  # held, so that no other mesh can take a known one's id
@@ -363,7 +365,10 @@ class HullSet:
         self.centroids = stacked([h.centroid[None] for h in hulls], (3,), np.float64)
         self.sizes = np.array([h.size for h in hulls], dtype=np.float64)
         self.thicknesses = np.array([h.thickness for h in hulls], dtype=np.float64)
-        boxes = [box_frame(h.vertices, h.planes, h.edges, h.size) for h in hulls]
+        boxes = [
+            box_frame(h.vertices, h.planes, h.edges, h.size) if self.find_boxes else None
+            for h in hulls
+        ]
         self.box_frames = stacked(
             [np.zeros((1, 5, 3)) if box is None else box[0][None] for box in boxes],
             (5, 3),
