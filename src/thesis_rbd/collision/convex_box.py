@@ -28,10 +28,11 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.collision.convex_manifold import (
     DEEPEST_VERTEX_TAG,
+    PARALLEL_COSINE,
     clip_incident_face,
     emit_face_contacts,
 )
-from thesis_rbd.collision.convex_sat import EDGES, FACE_A, FACE_B
+from thesis_rbd.collision.convex_sat import EDGES, FACE_A, FACE_B, PARALLEL_SINE
 
 __all__ = ["box_box_query", "box_face_contacts", "box_frame"]
 
@@ -39,12 +40,6 @@ __all__ = ["box_box_query", "box_face_contacts", "box_frame"]
 # vertices this close to the box's corners (relative to the size), make a hull a box: the
 # closed form is then exact to round-off for the polyhedron the hull is.
 _BOX_TOLERANCE = 1e-12
-# Edge directions closer to parallel than this (sine) give no axis of their own, as in
-# ``sat_query``: the face axes cover them.
-_PARALLEL_SINE = 1e-9
-# Incident faces this close to parallel with the reference face (cosine) are clipped at the
-# reference plane too, as in the general face manifold
-_PARALLEL_COSINE = math.cos(1e-2)
 # The corners of a box face, counter-clockwise seen along its axis k from outside when
 # (alpha, beta) multiply the half extents along axes k + 1 and k + 2
 _ALPHA = (1.0, -1.0, -1.0, 1.0)
@@ -187,7 +182,7 @@ def box_box_query(frames, features, ha, hb, R, t, tie):
             j1, j2 = (j + 1) % 3, (j + 2) % 3
             c1, c2 = C[3 * k1 + j], C[3 * k2 + j]
             length2 = c1 * c1 + c2 * c2
-            if length2 <= _PARALLEL_SINE**2:
+            if length2 <= PARALLEL_SINE**2:
                 continue
             along = D[k2] * c1 - D[k1] * c2
             reach = ea[k1] * abs(c2) + ea[k2] * abs(c1)
@@ -329,7 +324,7 @@ def box_face_contacts(
     incident_sign = -1.0 if x * nx + y * ny + z * nz > 0.0 else 1.0
     incident_face = features[other, 2 * j + (1 if incident_sign > 0.0 else 0)]
     _face_corners(frames, other, j, incident_sign, R, t, not own_turned, incident)
-    parallel = best >= _PARALLEL_COSINE
+    parallel = best >= PARALLEL_COSINE
     count = _lying_inside(
         frames, own, k, R, t, own_turned, nx, ny, nz, d, incident, parallel, margin, tolerance,
         points, tags,

@@ -43,6 +43,7 @@ from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_que
 from thesis_rbd.collision.convex_hull_data import unpack_hulls
 from thesis_rbd.collision.convex_manifold import (
     DEEPEST_VERTEX_TAG,
+    PARALLEL_COSINE,
     clip_incident_face,
     edge_contact_point,
     emit_face_contacts,
@@ -87,9 +88,6 @@ _FLAT_EDGE_ANGLE = 1e-2
 # few micro-radians, keeps its widest four corners whichever way it tilts, instead of
 # flipping between sets as the tilt does.
 _FLAT = 1e-5
-# Incident faces this close to parallel with the reference face (cosine) are clipped at the
-# reference plane too; tilted ones keep only their corners below it
-_PARALLEL_COSINE = math.cos(1e-2)
 # A's own frame for _gather_loop: module constants, which numba compiles in, so the face
 # manifold allocates nothing per pair
 _IDENTITY = np.eye(3)
@@ -241,7 +239,7 @@ def _face_manifold(
             R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz,
             R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz,
         )
-    parallel = -(mx * nx + my * ny + mz * nz) >= _PARALLEL_COSINE
+    parallel = -(mx * nx + my * ny + mz * nz) >= PARALLEL_COSINE
     count = clip_incident_face(
         reference, k, nx, ny, nz, d, incident, m, parallel, margin, tolerance, points, tags,
         spare, spare_tags, labels, spare_labels, depths,
@@ -421,9 +419,11 @@ def convex_contacts_for_pairs(
         _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
         _relative_frame(Ra, ta, Rb, tb, R, t)
         margin = max(speculative * min(thicknesses[ha], thicknesses[hb]), reach)
-        if box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0:
+        tolerance = _TIE * (sizes[ha] + sizes[hb])
+        boxes = box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0
+        if boxes:
             kind, fi, fj, separation, ux, uy, uz = box_box_query(
-                box_frames, box_features, ha, hb, R, t, _TIE * (sizes[ha] + sizes[hb])
+                box_frames, box_features, ha, hb, R, t, tolerance
             )
         else:
             kind, fi, fj, separation, ux, uy, uz = _pair_query(
@@ -433,7 +433,6 @@ def convex_contacts_for_pairs(
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
         if separation > margin:
             continue
-        tolerance = _TIE * (sizes[ha] + sizes[hb])
         flat = _FLAT * (sizes[ha] + sizes[hb])
         apart = separation > 0.0
         count = 0
@@ -461,7 +460,7 @@ def convex_contacts_for_pairs(
             # the normal runs from B towards A: against the axis
             nx, ny, nz = -ux, -uy, -uz
         else:
-            if box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0:
+            if boxes:
                 count, nx, ny, nz = box_face_contacts(
                     box_frames, box_features, ha, hb, kind, fi, R, t, margin, apart,
                     tolerance, flat, reference, incident, points, tags, spare, spare_tags,

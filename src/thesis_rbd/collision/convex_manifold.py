@@ -33,6 +33,7 @@ from thesis_rbd._jit import njit
 
 __all__ = [
     "DEEPEST_VERTEX_TAG",
+    "PARALLEL_COSINE",
     "TAG_BITS",
     "clip_incident_face",
     "edge_contact_point",
@@ -48,6 +49,9 @@ TAG_BITS = 21
 _SIDE_LABEL = 512
 _LABEL_MASK = 511
 _TAG_MASK = (1 << TAG_BITS) - 1
+# Incident faces this close to parallel with the reference face (cosine) are clipped at the
+# reference plane too; tilted ones keep only their corners below it
+PARALLEL_COSINE = math.cos(1e-2)
 # Clip tag of a contact at the incident hull's deepest vertex (no incident corner below)
 DEEPEST_VERTEX_TAG = _TAG_MASK
 _FACE_BITS = 20

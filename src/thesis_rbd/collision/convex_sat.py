@@ -29,6 +29,7 @@ __all__ = [
     "EDGES",
     "FACE_A",
     "FACE_B",
+    "PARALLEL_SINE",
     "axis_separation",
     "edge_pair_separation",
     "face_separation",
@@ -42,7 +43,7 @@ FACE_B = 2
 EDGES = 3
 # Edges closer to parallel than this (sine of their angle) give no axis of their own: their
 # Minkowski face is a face of one hull, already a candidate.
-_PARALLEL_SINE = 1e-9
+PARALLEL_SINE = 1e-9
 
 
 @njit
@@ -132,7 +133,7 @@ def edge_pair_separation(vertices_a, edges_a, ea, centroid_a, vertices_b, edges_
     uy = az * bx - ax * bz
     uz = ax * by - ay * bx
     length2 = ux * ux + uy * uy + uz * uz
-    if length2 <= _PARALLEL_SINE**2 * (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz):
+    if length2 <= PARALLEL_SINE**2 * (ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz):
         return -np.inf, 0.0, 0.0, 0.0
     px, py, pz = vertices_a[ta, 0], vertices_a[ta, 1], vertices_a[ta, 2]
     if ux * (px - centroid_a[0]) + uy * (py - centroid_a[1]) + uz * (pz - centroid_a[2]) < 0.0:
