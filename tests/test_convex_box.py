@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
+from tests.reference_convex import least_penetration
 from tests.test_convex_contacts import Pair, face_pairs, pairs
 from thesis_rbd.collision.convex_box import box_box_query
 from thesis_rbd.collision.convex_hull_data import HullSet
@@ -124,6 +125,11 @@ def test_box_contacts_equal_the_general_path(pair):
     np.testing.assert_allclose(
         np.sort(fast["depths"]), np.sort(general["depths"]), atol=1e-9 * size
     )
+    # where the least-penetration axis is tied (a box centred on the other along it: either
+    # face is as deep), the two paths may take either; elsewhere the same axis and corners
+    depth, _, runner_up = least_penetration(pair.points_a, pair.points_b)[:3]
+    if runner_up <= depth + 1e-8 * size:
+        return
     np.testing.assert_allclose(fast["normals"], general["normals"], atol=1e-9)
     # the same corner set: every point of one has a partner in the other
     gaps = np.linalg.norm(fast["points"][:, None] - general["points"][None], axis=2)
