@@ -408,13 +408,6 @@ def convex_contacts_for_pairs(
         ha, hb = hull_of_body[i], hull_of_body[j]
         key = pair_key(i, j)
         new_keys[q] = key
-        cached_kind, cached_i, cached_j = 0, 0, 0
-        ax, ay, az = 0.0, 0.0, 0.0
-        slot = np.searchsorted(cache_keys, key)
-        if slot < cache_keys.shape[0] and cache_keys[slot] == key:
-            cached_kind = cache_features[slot, 0]
-            cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
-            ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
         _mesh_frame(i, position, orientation, center_of_mass_local, Ra, ta)
         _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
         _relative_frame(Ra, ta, Rb, tb, R, t)
@@ -426,6 +419,14 @@ def convex_contacts_for_pairs(
                 box_frames, box_features, ha, hb, R, t, tolerance
             )
         else:
+            # last step's axis first (two boxes need no cache: their test is closed form)
+            cached_kind, cached_i, cached_j = 0, 0, 0
+            ax, ay, az = 0.0, 0.0, 0.0
+            slot = np.searchsorted(cache_keys, key)
+            if slot < cache_keys.shape[0] and cache_keys[slot] == key:
+                cached_kind = cache_features[slot, 0]
+                cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
+                ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
             kind, fi, fj, separation, ux, uy, uz = _pair_query(
                 H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch
             )
@@ -499,7 +500,11 @@ def convex_contacts_for_pairs(
 
     # packed into two arrays (see ``split_contacts``): each array a kernel returns costs
     # about a microsecond to hand to Python, a small scene's whole narrow phase
-    order = np.argsort(new_keys)
+    order = np.arange(p)
+    for q in range(1, p):
+        if new_keys[q] < new_keys[q - 1]:  # (the broad phase's pairs come sorted)
+            order = np.argsort(new_keys)
+            break
     ints = np.empty(1 + 5 * c + 4 * p, np.int64)
     floats = np.empty(7 * c + 3 * p)
     ints[0] = c
