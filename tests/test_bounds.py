@@ -148,9 +148,10 @@ def test_overlapping_pairs_matches_an_all_pairs_test():
         for i, j in brute_force_pairs(tight[0], tight[1]).tolist()
         if not (resting[i] and resting[j])
     ]
-    np.testing.assert_array_equal(
-        overlapping_pairs(pairs, tight, resting), np.array(expected).reshape(-1, 2)
-    )
+    out = np.full((len(pairs), 2), -7, np.int64)
+    kept = overlapping_pairs(pairs, tight, resting, out)
+    np.testing.assert_array_equal(out[:kept], np.array(expected).reshape(-1, 2))
+    assert np.all(out[kept:] == -7)  # nothing written beyond the kept rows
 
 
 def test_fat_boxes_lose_no_candidate_pair():

@@ -22,10 +22,9 @@ from tests.reference_convex import (
 )
 from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
-    convex_contacts_for_pairs,
+    convex_contacts,
     empty_cache,
     pair_key,
-    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.convex_sat import EDGES
@@ -81,12 +80,9 @@ class Pair:
 
     def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION):
         cache = empty_cache() if cache is None else cache
-        found, new_cache = split_contacts(
-            *convex_contacts_for_pairs(
-                np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(),
-                self.hulls.longest_loop, self.position, self.orientation, np.zeros((2, 3)),
-                *cache, speculative, 0.0,
-            )
+        found, new_cache = convex_contacts(
+            np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+            self.position, self.orientation, np.zeros((2, 3)), cache, speculative, 0.0,
         )  # fmt: skip
         keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
         return dict(zip(keys, found, strict=True)), new_cache

@@ -7,7 +7,7 @@ it. Bodies are unit cubes (box-box pairs) or icospheres of radius 0.5 with 2 sub
 (icosphere-box pairs), 0.1 mm into the floor and tilted by up to 1e-4 rad, as resting
 bodies are. Both narrow phases answer the same pairs in the same run:
 
-* convex: ``convex_contacts_for_pairs`` with its coherence cache filled by a first call, as
+* convex: ``convex_contacts`` with its coherence cache filled by a first call, as
   from the step before;
 * mesh: ``narrow_phase.contacts_for_pairs``, the OBBTree path every pair took before.
 
@@ -26,9 +26,8 @@ from scipy.spatial.transform import Rotation
 import thesis_rbd as rbd
 from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
-    convex_contacts_for_pairs,
+    convex_contacts,
     empty_cache,
-    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -74,11 +73,9 @@ class RestingPairs:
         return self.position, self.orientation, self.center_of_mass_local
 
     def _convex(self):
-        return split_contacts(
-            *convex_contacts_for_pairs(
-                self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-                *self.state(), *self.cache, SPECULATIVE_FRACTION, REACH,
-            )
+        return convex_contacts(
+            self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+            *self.state(), self.cache, SPECULATIVE_FRACTION, REACH,
         )  # fmt: skip
 
     def convex(self):

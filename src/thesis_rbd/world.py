@@ -463,15 +463,19 @@ class World:
     def _stage_contacts(self) -> None:
         """Impulses of the contacts where the bodies are now, before they move."""
         b, c, pf = self.bodies, self._contacts, self._point_forces
-        impulses = np.empty((len(c["depths"]), 3))
+        count = len(c["depths"])
+        impulses = np.empty((count, 3))
         warm = self._warm_start
+        keys, values = np.empty((count, 2), np.int64), np.empty((count, 6))
         stats = self._contact_stats
-        warm.keys, warm.values = solve_contacts(
+        solve_contacts(
             self._settings, self._polygon, b.count, self._frozen,
             c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"], c["features"],
             *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
-            pf.arm, pf.force, warm.keys, warm.values, impulses, self._solved, stats,
+            pf.arm, pf.force, warm.keys, warm.values, keys, values, impulses, self._solved,
+            stats,
         )  # fmt: skip
+        warm.keys, warm.values = keys, values
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))
         self._acted = dict(c, impulses=impulses)

@@ -82,8 +82,7 @@ class _Scene:
         from thesis_rbd.collision import convex_contacts, narrow_phase
         from thesis_rbd.collision.convex_hull_data import HullSet
 
-        self._convex_kernel = convex_contacts.convex_contacts_for_pairs
-        self._split = convex_contacts.split_contacts
+        self._convex_contacts = convex_contacts.convex_contacts
         self._speculative = convex_contacts.SPECULATIVE_FRACTION
         self._empty_cache = convex_contacts.empty_cache
         self._mesh_kernel = narrow_phase.contacts_for_pairs
@@ -127,12 +126,10 @@ class _Scene:
 
     def _convex(self, cache):
         """(contacts, new cache), unpacked as the world's narrow phase unpacks them."""
-        return self._split(
-            *self._convex_kernel(
-                self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-                self.position, self.orientation, self.center_of_mass_local, *cache,
-                self._speculative, 0.0,
-            )
+        return self._convex_contacts(
+            self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
+            self.position, self.orientation, self.center_of_mass_local, cache,
+            self._speculative, 0.0,
         )  # fmt: skip
 
     def convex_warm(self):

@@ -17,7 +17,8 @@ box: posed by the rotation R, the local box (centre offset o from the centre of 
 half-extents h) has centre x + R o and half-extents |R| h (Arvo 1990), at most sqrt(3) times
 too large for the mesh and with no per-vertex work; intersected with x ± r, and for a fast body
 joined with the sphere's box at the start of the step. ``tight_bounds`` computes it for the
-bodies of fat pairs only, and ``overlapping_pairs`` keeps the pairs whose tight boxes overlap.
+bodies of fat pairs only, and ``overlapping_pairs`` keeps the pairs whose tight boxes overlap
+(``candidate_pairs`` does both in one call).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from thesis_rbd.spatial.quaternion import to_matrix_into
 __all__ = [
     "MARGIN_FRACTION",
     "PREDICTION_STEPS",
+    "candidate_pairs",
     "overlapping_pairs",
     "tight_bounds",
     "update_fat_bounds",
@@ -168,7 +170,7 @@ def tight_bounds(
 
 
 @njit
-def overlapping_pairs(pairs, tight, resting):
+def overlapping_pairs(pairs, tight, resting, out):
     """The pairs whose tight boxes overlap and that have a moving body.
 
     Parameters
@@ -180,13 +182,15 @@ def overlapping_pairs(pairs, tight, resting):
         touching boxes overlap.
     resting : (n,) bool
         Bodies that do not move this step: two of them cannot make a new contact.
+    out : (>= p, 2) int64
+        Receives the kept rows of ``pairs``, in order (written, not returned: an array a
+        kernel returns costs more to hand to Python than this whole test of a small scene).
 
     Returns
     -------
-    (q, 2) int64
-        The kept rows of ``pairs``, in order.
+    int
+        How many were kept (rows of ``out``).
     """
-    keep = np.zeros(pairs.shape[0], np.bool_)
     kept = 0
     for k in range(pairs.shape[0]):
         i, j = pairs[k, 0], pairs[k, 1]
@@ -197,12 +201,21 @@ def overlapping_pairs(pairs, tight, resting):
             if tight[0, i, a] > tight[1, j, a] or tight[0, j, a] > tight[1, i, a]:
                 overlap = False
                 break
-        keep[k] = overlap
-        kept += overlap
-    out = np.empty((kept, 2), np.int64)
-    row = 0
-    for k in range(pairs.shape[0]):
-        if keep[k]:
-            out[row, 0], out[row, 1] = pairs[k, 0], pairs[k, 1]
-            row += 1
-    return out
+        if overlap:
+            out[kept, 0], out[kept, 1] = i, j
+            kept += 1
+    return kept
+
+
+@njit
+def candidate_pairs(
+    pairs, members, box_offset, box_half, radius, position, orientation, start_position, fast,
+    thickness, speculative, reach, tight, resting, out,
+):  # fmt: skip
+    """``tight_bounds`` of ``members`` then ``overlapping_pairs`` of ``pairs``, in one call
+    (arguments as theirs); returns the count of candidate pairs written to ``out``."""
+    tight_bounds(
+        members, box_offset, box_half, radius, position, orientation, start_position, fast,
+        thickness, speculative, reach, tight,
+    )  # fmt: skip
+    return overlapping_pairs(pairs, tight, resting, out)

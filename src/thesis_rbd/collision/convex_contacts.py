@@ -56,11 +56,11 @@ __all__ = [
     "CACHE_AXIS",
     "SAT_EDGE_PAIRS",
     "SPECULATIVE_FRACTION",
+    "convex_contacts",
     "convex_contacts_for_pairs",
     "empty_cache",
     "feature_id",
     "pair_key",
-    "split_contacts",
 ]
 
 # Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
@@ -319,9 +319,11 @@ def _query_scratch(H):
 @njit
 def convex_contacts_for_pairs(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
-    center_of_mass_local, cache_keys, cache_features, cache_axes, speculative, reach,
+    center_of_mass_local, cache_keys, cache_features, cache_axes, speculative, reach, ints,
+    floats,
 ):  # fmt: skip
-    """Contacts of candidate pairs of convex bodies, world frame, in one call.
+    """Contacts of candidate pairs of convex bodies, world frame, in one call
+    (``convex_contacts`` calls it and unpacks what it writes).
 
     Parameters
     ----------
@@ -352,10 +354,18 @@ def convex_contacts_for_pairs(
         under gravity over the step, so that a small body resting on another keeps its
         contact while a solver's round-off lifts it.
 
+    ints, floats : (>= 1 + 24 p,) int64 and (>= 31 p,) float64
+        Out: everything below, packed (at most four contacts a pair); ``convex_contacts``
+        gives it back as arrays. (Written, not returned: each array a kernel returns costs
+        about a microsecond to hand to Python, a small scene's whole narrow phase.)
+
     Returns
     -------
-    ints, floats : (1 + 5 c + 4 p,) int64 and (7 c + 3 p,) float64
-        Everything below, packed; ``split_contacts`` gives it back as arrays.
+    int
+        The number of contacts c.
+
+    Written
+    -------
     body_a, body_b : (c,) int64
         The pair of each contact (a = i, b = j).
     points, normals : (c, 3) float64
@@ -498,15 +508,12 @@ def convex_contacts_for_pairs(
             out_depths[r] = -separation if above <= level else -separation - above
         c += count
 
-    # packed into two arrays (see ``split_contacts``): each array a kernel returns costs
-    # about a microsecond to hand to Python, a small scene's whole narrow phase
+    # packed into the two output arrays (see ``_unpack``)
     order = np.arange(p)
     for q in range(1, p):
         if new_keys[q] < new_keys[q - 1]:  # (the broad phase's pairs come sorted)
             order = np.argsort(new_keys)
             break
-    ints = np.empty(1 + 5 * c + 4 * p, np.int64)
-    floats = np.empty(7 * c + 3 * p)
     ints[0] = c
     for r in range(c):
         ints[1 + r] = body_a[r]
@@ -524,15 +531,27 @@ def convex_contacts_for_pairs(
         for a in range(3):
             ints[1 + 5 * c + p + 3 * m + a] = new_features[q, a]
             floats[7 * c + 3 * m + a] = new_axes[q, a]
-    return ints, floats
+    return c
 
 
-def split_contacts(ints: np.ndarray, floats: np.ndarray) -> tuple[tuple, tuple]:
-    """The contacts and the new cache from ``convex_contacts_for_pairs``'s packed output,
-    as contiguous views: ((body_a, body_b, points, normals, depths, faces, features),
-    (cache_keys, cache_features, cache_axes))."""
-    c = int(ints[0])
-    p = (len(floats) - 7 * c) // 3
+def convex_contacts(
+    pairs, hull_of_body, hull_arrays, longest_loop, position, orientation, center_of_mass_local,
+    cache, speculative, reach,
+) -> tuple[tuple, tuple]:  # fmt: skip
+    """``convex_contacts_for_pairs`` (same arguments, ``cache`` the triple (keys, features,
+    axes)), its output unpacked into contiguous views: ((body_a, body_b, points, normals,
+    depths, faces, features), (cache_keys, cache_features, cache_axes))."""
+    p = len(pairs)
+    ints, floats = np.empty(1 + 24 * p, np.int64), np.empty(31 * p)
+    c = convex_contacts_for_pairs(
+        pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+        center_of_mass_local, *cache, speculative, reach, ints, floats,
+    )  # fmt: skip
+    return _unpack(ints, floats, c, p)
+
+
+def _unpack(ints: np.ndarray, floats: np.ndarray, c: int, p: int) -> tuple[tuple, tuple]:
+    """The contacts and the cache of ``convex_contacts_for_pairs``'s packed output."""
     contacts = (
         ints[1 : 1 + c], ints[1 + c : 1 + 2 * c], floats[: 3 * c].reshape(c, 3),
         floats[3 * c : 6 * c].reshape(c, 3), floats[6 * c : 7 * c],
@@ -540,8 +559,8 @@ def split_contacts(ints: np.ndarray, floats: np.ndarray) -> tuple[tuple, tuple]:
     )  # fmt: skip
     cache = (
         ints[1 + 5 * c : 1 + 5 * c + p],
-        ints[1 + 5 * c + p :].reshape(p, 3),
-        floats[7 * c :].reshape(p, 3),
+        ints[1 + 5 * c + p : 1 + 5 * c + 4 * p].reshape(p, 3),
+        floats[7 * c : 7 * c + 3 * p].reshape(p, 3),
     )
     return contacts, cache
 

@@ -19,15 +19,14 @@ import numpy as np
 
 from thesis_rbd.collision.bounds import (
     PREDICTION_STEPS,
-    overlapping_pairs,
+    candidate_pairs,
     tight_bounds,
     update_fat_bounds,
 )
 from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
-    convex_contacts_for_pairs,
+    convex_contacts,
     empty_cache,
-    split_contacts,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
@@ -111,6 +110,7 @@ class CollisionPipeline:
         self.fat = np.zeros((2, 0, 3))
         self._fast = np.zeros(0, bool)
         self.fat_pairs = np.zeros((0, 2), np.int64)
+        self._candidates = np.zeros((0, 2), np.int64)  # rows written by each broad phase
         self.pair_members = np.zeros(0, np.int64)
         self.stats: dict[str, int] = {}
         self._may_pair = np.zeros(0, bool)
@@ -267,7 +267,7 @@ class CollisionPipeline:
 
         Candidates (p, 2) int64 are the fat pairs whose tight boxes overlap and that have a
         body not in ``resting`` (n,) bool (static or asleep: a pair of two of them cannot
-        produce a new contact).
+        produce a new contact): a view that the next call overwrites.
         """
         if self._fat_changed:
             lower, upper = self.fat[0], self.fat[1]
@@ -282,10 +282,17 @@ class CollisionPipeline:
                 pairs = pairs[may[i] & may[j] & ~(static[i] & static[j])]
             self.fat_pairs = pairs
             self.pair_members = np.unique(pairs) if len(pairs) else _NO_BODIES
+            self._candidates = np.empty_like(pairs)
             self._fat_changed = False
         if len(self.fat_pairs):
-            self._tight_bounds(bodies, self.pair_members, self.tight)
-            candidates = overlapping_pairs(self.fat_pairs, self.tight, resting)
+            b = bodies
+            count = candidate_pairs(
+                self.fat_pairs, self.pair_members, self.box_offset, self.box_half,
+                b.full("size"), b.full("position"), b.full("orientation"), self._start_position,
+                self._fast, b.full("thickness"), SPECULATIVE_FRACTION, self._reach, self.tight,
+                resting, self._candidates,
+            )  # fmt: skip
+            candidates = self._candidates[:count]
         else:
             candidates = _NO_PAIRS
         self.stats["candidate_pairs"] = len(candidates)
@@ -323,17 +330,11 @@ class CollisionPipeline:
         # this answer and contacts_of agree; tunnelling and time-of-impact searches ask
         # about a few pairs only
         if convex.any():
-            ints, _ = convex_contacts_for_pairs(
-                np.ascontiguousarray(pairs[convex]),
-                self.hull_of_body,
-                self._hull_arrays,
-                self.hulls.longest_loop,
-                *state,
-                *self.convex_cache,
-                0.0,
-                0.0,
-            )
-            if ints[0] > 0:  # the count of contacts
+            found, _ = convex_contacts(
+                np.ascontiguousarray(pairs[convex]), self.hull_of_body, self._hull_arrays,
+                self.hulls.longest_loop, *state, self.convex_cache, 0.0, 0.0,
+            )  # fmt: skip
+            if len(found[4]):  # any depth: a contact
                 return True
         if convex.all():
             return False
@@ -387,11 +388,9 @@ class CollisionPipeline:
 
     def _convex_contacts(self, pairs, state, keep_cache: bool) -> dict[str, np.ndarray]:
         """Contacts of convex pairs by the convex kernel, with its coherence cache."""
-        found, cache = split_contacts(
-            *convex_contacts_for_pairs(
-                pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
-                *self.convex_cache, SPECULATIVE_FRACTION, self._reach,
-            )
+        found, cache = convex_contacts(
+            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
+            self.convex_cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
         if keep_cache:
             self.convex_cache = cache

@@ -110,21 +110,29 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
     K = np.empty((3, 3))
     for k in range(c):
         a, b = body_a[k], body_b[k]
-        ra, rb = arm_a[k], arm_b[k]
-        Ia, Ib = inverse_inertia[a], inverse_inertia[b]
+        ra0, ra1, ra2 = arm_a[k, 0], arm_a[k, 1], arm_a[k, 2]
+        rb0, rb1, rb2 = arm_b[k, 0], arm_b[k, 1], arm_b[k, 2]
         for d in range(3):
-            e = basis[k, d]
-            ca0 = ra[1] * e[2] - ra[2] * e[1]
-            ca1 = ra[2] * e[0] - ra[0] * e[2]
-            ca2 = ra[0] * e[1] - ra[1] * e[0]
-            cb0 = rb[1] * e[2] - rb[2] * e[1]
-            cb1 = rb[2] * e[0] - rb[0] * e[2]
-            cb2 = rb[0] * e[1] - rb[1] * e[0]
+            e0, e1, e2 = basis[k, d, 0], basis[k, d, 1], basis[k, d, 2]
+            ca0 = ra1 * e2 - ra2 * e1
+            ca1 = ra2 * e0 - ra0 * e2
+            ca2 = ra0 * e1 - ra1 * e0
+            cb0 = rb1 * e2 - rb2 * e1
+            cb1 = rb2 * e0 - rb0 * e2
+            cb2 = rb0 * e1 - rb1 * e0
             angular_a[k, d, 0], angular_a[k, d, 1], angular_a[k, d, 2] = ca0, ca1, ca2
             angular_b[k, d, 0], angular_b[k, d, 1], angular_b[k, d, 2] = cb0, cb1, cb2
             for i in range(3):
-                response_a[k, d, i] = Ia[i, 0] * ca0 + Ia[i, 1] * ca1 + Ia[i, 2] * ca2
-                response_b[k, d, i] = Ib[i, 0] * cb0 + Ib[i, 1] * cb1 + Ib[i, 2] * cb2
+                response_a[k, d, i] = (
+                    inverse_inertia[a, i, 0] * ca0
+                    + inverse_inertia[a, i, 1] * ca1
+                    + inverse_inertia[a, i, 2] * ca2
+                )
+                response_b[k, d, i] = (
+                    inverse_inertia[b, i, 0] * cb0
+                    + inverse_inertia[b, i, 1] * cb1
+                    + inverse_inertia[b, i, 2] * cb2
+                )
         linear = inverse_mass[a] + inverse_mass[b]
         for d1 in range(3):
             for d2 in range(3):
@@ -146,33 +154,25 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
 @njit
 def _row_velocity(k, d, a, b, basis, angular_a, angular_b, velocity, angular_velocity):
     """u . e_d at contact k: (v_a + w_a x r_a - v_b - w_b x r_b) . e_d."""
-    e = basis[k, d]
-    ja, jb = angular_a[k, d], angular_b[k, d]
-    va, vb, wa, wb = velocity[a], velocity[b], angular_velocity[a], angular_velocity[b]
-    return (
-        e[0] * (va[0] - vb[0])
-        + e[1] * (va[1] - vb[1])
-        + e[2] * (va[2] - vb[2])
-        + ja[0] * wa[0]
-        + ja[1] * wa[1]
-        + ja[2] * wa[2]
-        - jb[0] * wb[0]
-        - jb[1] * wb[1]
-        - jb[2] * wb[2]
-    )
+    # element reads, not row views: a view of a row costs a reference count in and out,
+    # which in this innermost loop is more than the arithmetic
+    u = 0.0
+    for i in range(3):
+        u += basis[k, d, i] * (velocity[a, i] - velocity[b, i])
+        u += angular_a[k, d, i] * angular_velocity[a, i]
+        u -= angular_b[k, d, i] * angular_velocity[b, i]
+    return u
 
 
 @njit
 def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, velocity, w):
     """Impulse j along e_d of contact k: +j on body a at its arm, -j on body b."""
-    e = basis[k, d]
     ma, mb = inverse_mass[a] * j, inverse_mass[b] * j
-    ra, rb = response_a[k, d], response_b[k, d]
     for i in range(3):
-        velocity[a, i] += ma * e[i]
-        velocity[b, i] -= mb * e[i]
-        w[a, i] += j * ra[i]
-        w[b, i] -= j * rb[i]
+        velocity[a, i] += ma * basis[k, d, i]
+        velocity[b, i] -= mb * basis[k, d, i]
+        w[a, i] += j * response_a[k, d, i]
+        w[b, i] -= j * response_b[k, d, i]
 
 
 @njit

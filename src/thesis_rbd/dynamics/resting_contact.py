@@ -67,7 +67,7 @@ def solve_contacts(
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
-    old_keys, old_values, impulse, solved, stats,
+    old_keys, old_values, new_keys, new_values, impulse, solved, stats,
 ):  # fmt: skip
     """Solve every island's contacts for this step and write the momenta of the bodies hit.
 
@@ -94,6 +94,10 @@ def solve_contacts(
         The step's forces, as the integrator takes them.
     old_keys, old_values
         The previous step's contacts (``WarmStart``).
+    new_keys, new_values : (c, 2) int64, (c, 6) float64
+        Out: the next step's ``WarmStart`` arrays. (Results are written into arrays the
+        caller passes, not returned: each array a kernel returns costs about a microsecond
+        of boxing, much of a small scene's budget.)
     impulse : (c, 3) float64
         Out: (lambda_n, lambda_t1, lambda_t2) of each contact in its (n, t1, t2) frame.
     solved : (>= n,) bool
@@ -101,13 +105,6 @@ def solve_contacts(
     stats : (6,) int64
         Out: see ``STATS``; ``bad_body`` is the first body whose new state is not finite (-1
         if none).
-
-    Returns
-    -------
-    keys, values : (c, 2) int64, (c, 6) float64
-        The next step's ``WarmStart`` arrays. (Results are written into arrays the caller
-        passes wherever their size is known: each array a kernel returns costs a
-        microsecond of boxing, most of a small scene's budget.)
     """
     dt = settings[cs.DT]
     rate = settings[cs.BIAS_RATE]
@@ -242,12 +239,9 @@ def solve_contacts(
         for d in range(3):
             impulse[order[k], d] = lam[k, d]
     by_key = np.argsort(keys, kind="mergesort")
-    new_keys = np.empty((c, 2), np.int64)
-    new_values = np.empty((c, 6))
     for m in range(c):
         k = by_key[m]
         new_keys[m, 0], new_keys[m, 1] = keys[k], sorted_features[k]
         for a in range(3):
             new_values[m, a] = local[k, a]
             new_values[m, 3 + a] = world_impulse[k, a]
-    return new_keys, new_values

@@ -8,7 +8,7 @@ Impulses are kept as world vectors and read back in the new contact frame, whose
 have turned.
 
 The remembered contacts are plain arrays sorted by pair key (``WarmStart``), passed to the
-contact kernel and replaced by what it returns.
+contact kernel, which writes their successors into new arrays the caller passes.
 """
 
 from __future__ import annotations
