@@ -318,6 +318,14 @@ class CollisionPipeline:
         hull = self.hull_of_body
         return (hull[pairs[:, 0]] >= 0) & (hull[pairs[:, 1]] >= 0)
 
+    def convex_inputs(self, pairs: np.ndarray) -> tuple | None:
+        """What a kernel needs to ask the convex contact test about ``pairs`` (p, 2) itself
+        (``convex_contacts_for_pairs``' hull_of_body, hull_arrays, longest_loop and the
+        coherence cache), or None if a pair has a body that collides as a mesh."""
+        if not self._convex_pairs(pairs).all():
+            return None
+        return (self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *self.convex_cache)
+
     def intersects(self, bodies, pairs: np.ndarray) -> bool:
         """Whether any of the body ``pairs`` (p, 2) intersects in the current state."""
         state = (
