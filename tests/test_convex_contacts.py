@@ -21,6 +21,7 @@ from tests.reference_convex import (
     polygon_area,
 )
 from thesis_rbd.collision.convex_contacts import (
+    _TIE,
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
@@ -310,12 +311,15 @@ def test_convex_path_agrees_with_the_mesh_path(pair):
     ours, _ = pair.contacts()
     assert len(depths) and len(ours["depths"])
     deepest = int(np.argmax(depths))
-    # ours is exact; the mesh path judges large regions by their face normals alone, so it
-    # may miss an edge axis that is a hair shallower: it is never closer to the oracle
+    # ours is exact but for ties: a face axis beats an edge pair deeper by less than _TIE
+    # of the two sizes (whole-face manifolds for nearly parallel faces). The mesh path judges
+    # large regions by their face normals alone, so it may miss an edge axis that is a hair
+    # shallower: beyond that tie, it is never closer to the oracle (hypothesis found a pair
+    # where ours took the face 4.4e-10 of 6.5 shallower and the mesh path the edge pair)
     ours_error = abs(ours["depths"].max() - depth)
     mesh_error = abs(depths[deepest] - depth)
     assert ours_error <= 1e-9 * pair.size
-    assert ours_error <= mesh_error + 1e-12 * pair.size
+    assert ours_error <= mesh_error + 2.0 * _TIE * pair.size
     if mesh_error <= 1e-9 * pair.size:
         assert abs(depths[deepest] - ours["depths"].max()) <= 2e-9 * pair.size
         assert math.acos(min(1.0, float(normals[deepest] @ ours["normals"][0]))) <= 1e-6
