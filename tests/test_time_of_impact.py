@@ -1,9 +1,9 @@
-"""Time of impact: the one-call bisection of convex groups against the Python bisection.
+"""Time of impact: the one-call bisection against a plain Python bisection.
 
-``time_of_impact._bisect`` moves a group back along its ballistic path and asks the
-detector's yes/no query at each halving, in Python; ``bisect_convex_group`` does the same
-for pairs of convex bodies in one kernel call. The Python search is the reference: the
-kernel must leave the same time and the same poses and velocities, to the bit.
+``python_bisection`` below moves a group back along its ballistic path and asks the
+detector's yes/no query at each halving, one call at a time; ``bisect_to_contact`` does the
+same in one kernel call. The Python search is the reference: the kernel must leave the same
+time and the same poses and velocities, to the bit, for convex pairs and mesh pairs alike.
 """
 
 import numpy as np
@@ -12,14 +12,52 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.time_of_impact import _bisect, bisect_convex_group, group_contacts
+from thesis_rbd.collision.time_of_impact import (
+    HALVINGS,
+    bisect_to_contact,
+    group_contacts,
+    move_ballistic,
+)
+from thesis_rbd.collision.touching import pairs_touch
 
 DT = 1.0 / 240.0
 SHAPES = {
     "box": lambda size: rbd.shapes.box((size, 0.6 * size, 0.3 * size)),
     "icosphere": lambda size: rbd.shapes.icosphere(0.5 * size, 2),
     "cylinder": lambda size: rbd.shapes.cylinder(0.4 * size, size, 12),
+    "torus": lambda size: scaled(rbd.shapes.torus(0.4, 0.15, 16, 8), size),  # a mesh pair
 }
+
+
+def scaled(mesh, size):
+    """``mesh`` scaled by ``size`` (trimesh's torus built at 1 mm comes out open)."""
+    return rbd.TriangleMesh(mesh.vertices * size, mesh.faces)
+
+
+def python_bisection(detector, bodies, members, pairs, v, w, acceleration, dt):
+    """The reference search: back to the start of the step, then HALVINGS bisections on
+    ``detector.intersects``, each move and each query a call of its own."""
+    position, orientation = bodies.full("position"), bodies.full("orientation")
+    at = 0.0
+
+    def move_to(t):
+        nonlocal at
+        move_ballistic(members, at - t, v, w, acceleration, position, orientation)
+        at = t
+
+    move_to(dt)
+    if detector.intersects(bodies, pairs):
+        return dt
+    inside, outside = 0.0, dt
+    for _ in range(HALVINGS):
+        middle = 0.5 * (inside + outside)
+        move_to(middle)
+        if detector.intersects(bodies, pairs):
+            inside = middle
+        else:
+            outside = middle
+    move_to(inside)
+    return inside
 
 
 def falling_pair(shape, size, speed, spin, tilt, depth):
@@ -67,15 +105,14 @@ def test_the_kernel_bisection_is_the_python_bisection(shape, size, speed, spin, 
     start = position.copy(), orientation.copy()
 
     v_python = v.copy()
-    t_python = _bisect(detector, bodies, members, pairs, v_python, w, acceleration,
-                       position, orientation, DT)  # fmt: skip
+    t_python = python_bisection(detector, bodies, members, pairs, v_python, w, acceleration, DT)
     after_python = position.copy(), orientation.copy()
 
     position[:], orientation[:] = start
     v_kernel = v.copy()
-    t_kernel = bisect_convex_group(
+    t_kernel = bisect_to_contact(
         members, pairs, v_kernel, w, acceleration, position, orientation, DT,
-        bodies.full("center_of_mass_local"), *detector.convex_inputs(pairs),
+        bodies.full("center_of_mass_local"), detector.touch_inputs(),
     )  # fmt: skip
 
     assert t_kernel == t_python
@@ -85,11 +122,28 @@ def test_the_kernel_bisection_is_the_python_bisection(shape, size, speed, spin, 
     assert 0.0 < t_kernel <= DT  # every pair starts inside the floor: some step back
 
 
-def test_a_mesh_pair_is_left_to_the_python_bisection():
-    world = rbd.World(gravity=(0.0, 0.0, -9.81))
-    world.add_body(rbd.shapes.box((4.0, 4.0, 1.0)), static=True, position=(0, 0, -0.5))
-    torus = world.add_body(rbd.shapes.torus(0.6, 0.2, 24, 12), mass=1.0, position=(0, 0, 0.15))
-    assert world._collision.convex_inputs(np.array([[0, torus]])) is None
+def test_pairs_touch_asks_convex_and_mesh_pairs_alike():
+    """A floor, a cube and a torus: the answer is whether any pair touches, whichever
+    path the touching pair takes."""
+    world = rbd.World()
+    world.add_body(rbd.shapes.box((8.0, 8.0, 1.0)), static=True, position=(0, 0, -0.5))
+    world.add_body(rbd.shapes.box((1.0, 1.0, 1.0)), mass=1.0, position=(-2.0, 0, 0.5))
+    world.add_body(rbd.shapes.torus(0.6, 0.2, 24, 12), mass=1.0, position=(2.0, 0, 0.2))
+    detector, bodies = world._collision, world.bodies
+    pairs = np.array([[0, 1], [0, 2]])
+    position = bodies.full("position")
+
+    def touching():
+        orientation, centre = bodies.full("orientation"), bodies.full("center_of_mass_local")
+        return pairs_touch(pairs, position, orientation, centre, *detector.touch_inputs())
+
+    assert touching()  # both rest on the floor
+    position[1, 2] = 0.6  # the cube lifted: the torus (a mesh pair) still touches
+    assert touching()
+    position[2, 2] = 0.3  # both lifted
+    assert not touching()
+    position[1, 2] = 0.49  # the cube (a convex pair) pressed in
+    assert touching()
 
 
 @settings(max_examples=100, deadline=None)

@@ -29,8 +29,9 @@ from thesis_rbd.collision.convex_contacts import (
     empty_cache,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.narrow_phase import GeometrySet, any_intersection, contacts_for_pairs
+from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
+from thesis_rbd.collision.touching import pairs_touch
 
 __all__ = ["NARROW_PHASES", "CollisionPipeline", "empty_contacts"]
 
@@ -318,42 +319,24 @@ class CollisionPipeline:
         hull = self.hull_of_body
         return (hull[pairs[:, 0]] >= 0) & (hull[pairs[:, 1]] >= 0)
 
-    def convex_inputs(self, pairs: np.ndarray) -> tuple | None:
-        """What a kernel needs to ask the convex contact test about ``pairs`` (p, 2) itself
-        (``convex_contacts_for_pairs``' hull_of_body, hull_arrays, longest_loop and the
-        coherence cache), or None if a pair has a body that collides as a mesh."""
-        if not self._convex_pairs(pairs).all():
-            return None
-        return (self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *self.convex_cache)
+    def touch_inputs(self) -> tuple:
+        """What ``touching.pairs_touch`` takes after the pairs and the body poses: the hull
+        set, the coherence cache and the trees (None while every body is convex: no tree is
+        built, and the tree query is not compiled), so that a kernel can ask it in a loop."""
+        trees = None if self._every_body_convex else self.geometry.arrays()
+        return (
+            self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *self.convex_cache,
+            self.geometry_of_body, trees,
+        )  # fmt: skip
 
     def intersects(self, bodies, pairs: np.ndarray) -> bool:
-        """Whether any of the body ``pairs`` (p, 2) intersects in the current state."""
-        state = (
-            bodies.full("position"),
-            bodies.full("orientation"),
-            bodies.full("center_of_mass_local"),
-        )
-        convex = self._convex_pairs(pairs)
-        # the contact kernel decides without its speculative margin (overlap or touch), so
-        # this answer and contacts_of agree; tunnelling and time-of-impact searches ask
-        # about a few pairs only
-        if convex.any():
-            found, _ = convex_contacts(
-                np.ascontiguousarray(pairs[convex]), self.hull_of_body, self._hull_arrays,
-                self.hulls.longest_loop, *state, self.convex_cache, 0.0, 0.0,
-            )  # fmt: skip
-            if len(found[4]):  # any depth: a contact
-                return True
-        if convex.all():
-            return False
-        return bool(
-            any_intersection(
-                np.ascontiguousarray(pairs[~convex]),
-                self.geometry_of_body,
-                self.geometry.arrays(),
-                *state,
-            )
-        )
+        """Whether any of the body ``pairs`` (p, 2) intersects in the current state
+        (``touching.pairs_touch``: convex pairs without the speculative margin, so that
+        this answer and ``contacts_of`` agree)."""
+        return pairs_touch(
+            np.ascontiguousarray(pairs), bodies.full("position"), bodies.full("orientation"),
+            bodies.full("center_of_mass_local"), *self.touch_inputs(),
+        )  # fmt: skip
 
     def contacts_of(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
         """Contacts of the body ``pairs`` (p, 2) in the current state (see ``empty_contacts``)."""

@@ -23,12 +23,13 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd._union_find import find_root, join
-from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs
+from thesis_rbd.collision.convex_contacts import pair_key
+from thesis_rbd.collision.touching import pairs_touch
 from thesis_rbd.spatial.quaternion import mul, normalize
 
 __all__ = [
     "HALVINGS",
-    "bisect_convex_group",
+    "bisect_to_contact",
     "group_contacts",
     "impact_groups",
     "move_ballistic",
@@ -91,19 +92,19 @@ def impact_groups(body_count, body_a, body_b, hits, movers):
 
 
 @njit
-def unique_pairs(body_a, body_b, selected, body_count):
+def unique_pairs(body_a, body_b, selected):
     """(p, 2) int64: the distinct body pairs of the ``selected`` (c,) bool contacts, sorted by
     (a, b) (as ``np.unique(..., axis=0)``, which costs tens of microseconds a call)."""
     keys = np.empty(body_a.shape[0], np.int64)
     m = 0
     for k in range(body_a.shape[0]):
         if selected[k]:
-            keys[m] = body_a[k] * (body_count + 1) + body_b[k]
+            keys[m] = pair_key(body_a[k], body_b[k])
             m += 1
     distinct = np.unique(keys[:m])
     pairs = np.empty((distinct.shape[0], 2), np.int64)
     for r in range(distinct.shape[0]):
-        pairs[r, 0], pairs[r, 1] = divmod(distinct[r], body_count + 1)
+        pairs[r, 0], pairs[r, 1] = distinct[r] >> 32, distinct[r] & 0xFFFFFFFF
     return pairs
 
 
@@ -115,7 +116,7 @@ def group_contacts(group, g, body_a, body_b):
     mine = np.zeros(body_a.shape[0], np.bool_)
     for k in range(body_a.shape[0]):
         mine[k] = group[body_a[k]] == g or group[body_b[k]] == g
-    return members, mine, unique_pairs(body_a, body_b, mine, group.shape[0])
+    return members, mine, unique_pairs(body_a, body_b, mine)
 
 
 def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt):
@@ -124,7 +125,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
     Parameters
     ----------
     detector : CollisionPipeline
-        Answers ``intersects(bodies, pairs)`` and ``contacts_of(bodies, pairs)``.
+        Gives ``touch_inputs()`` and answers ``contacts_of(bodies, pairs)``.
     bodies : BodyArrays
         Positions and orientations of stepped-back bodies are moved to their time of impact.
     contacts : dict of arrays
@@ -156,114 +157,59 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
     renewed = np.zeros(len(body_a), bool)
     for g in range(groups):
         members, mine, pairs = group_contacts(group, g, body_a, body_b)
-        convex = detector.convex_inputs(pairs)
-        if convex is None:
-            t = _bisect(
-                detector, bodies, members, pairs, v, w, acceleration, position, orientation, dt
-            )
-        else:
-            t = bisect_convex_group(
-                members, pairs, v, w, acceleration, position, orientation, dt,
-                bodies.full("center_of_mass_local"), *convex,
-            )  # fmt: skip
+        t = bisect_to_contact(
+            members, pairs, v, w, acceleration, position, orientation, dt,
+            bodies.full("center_of_mass_local"), detector.touch_inputs(),
+        )  # fmt: skip
         if t > 0.0:
             rewind[members] = t
             renewed |= mine
     if not renewed.any():
         return rewind, contacts
-    fresh = detector.contacts_of(bodies, unique_pairs(body_a, body_b, renewed, n))
+    fresh = detector.contacts_of(bodies, unique_pairs(body_a, body_b, renewed))
     kept = ~renewed
     return rewind, {key: np.concatenate([contacts[key][kept], fresh[key]]) for key in fresh}
 
 
-def _bisect(detector, bodies, members, pairs, v, w, acceleration, position, orientation, dt):
-    """Leave ``members`` just inside first contact and return how far back that is (s).
-
-    Returns ``dt`` (with the bodies where they started the step) when the pairs already
-    touched then. Any pairs, through the detector's yes/no query; ``bisect_convex_group``
-    is the same search in one kernel call for pairs of convex bodies.
-    """
-    at = 0.0
-
-    def move_to(t):
-        nonlocal at
-        move_ballistic(members, at - t, v, w, acceleration, position, orientation)
-        at = t
-
-    move_to(dt)
-    if detector.intersects(bodies, pairs):
-        return dt
-    inside, outside = 0.0, dt
-    for _ in range(HALVINGS):
-        middle = 0.5 * (inside + outside)
-        move_to(middle)
-        if detector.intersects(bodies, pairs):
-            inside = middle
-        else:
-            outside = middle
-    move_to(inside)
-    return inside
-
-
 @njit
-def bisect_convex_group(
+def bisect_to_contact(
     members, pairs, v, w, acceleration, position, orientation, dt, center_of_mass_local,
-    hull_of_body, hull_arrays, longest_loop, cache_keys, cache_features, cache_axes,
+    touch_inputs,
 ):  # fmt: skip
-    """``_bisect`` for a group whose ``pairs`` (p, 2) are all of convex bodies, in one call.
+    """Leave ``members`` just inside first contact of ``pairs`` and return how far back that
+    is (s), in one call.
 
-    The same moves and the same yes/no answers in the same order (the convex contact test
-    without its speculative margin, as ``CollisionPipeline.intersects`` asks it, with the
-    pipeline's coherence cache), so the same time and poses to the bit; the bisection in
-    Python cost a kernel call and its glue per halving, most of a pile's step.
+    The group goes back along its ballistic path to the start of the step and, unless its
+    pairs touched already then (``dt`` is returned, the bodies left there), bisection on
+    ``touching.pairs_touch`` finds the last moment at which they touched, to
+    dt / 2^``HALVINGS``.
 
     Parameters
     ----------
     members : (m,) int64
-        The group's bodies, moved back along their ballistic paths.
+        The group's bodies.
     pairs : (p, 2) int64
         The pairs whose contact is sought.
     v, w, acceleration, position, orientation
         As ``move_ballistic``; ``v`` and the poses are left at the time found.
     dt : float
         The step: no body goes back further.
-    center_of_mass_local, hull_of_body, hull_arrays, longest_loop, cache_keys,
-    cache_features, cache_axes
-        As ``convex_contacts_for_pairs``.
-
-    Returns
-    -------
-    float
-        How far back (s) the bodies were left: just inside first contact, or ``dt`` (where
-        they started the step) if the pairs touched already then.
+    center_of_mass_local : (n, 3) float64
+    touch_inputs : tuple
+        ``CollisionPipeline.touch_inputs()``.
     """
-    p = pairs.shape[0]
-    ints = np.empty(1 + 24 * p, np.int64)
-    floats = np.empty(31 * p)
-    query = (
-        hull_of_body, hull_arrays, longest_loop, position, orientation, center_of_mass_local,
-        cache_keys, cache_features, cache_axes,
-    )  # fmt: skip
-    move_ballistic(members, -dt, v, w, acceleration, position, orientation)
     at = dt
-    if _touching(pairs, query, ints, floats):
+    move_ballistic(members, -dt, v, w, acceleration, position, orientation)
+    if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
         return dt
     inside, outside = 0.0, dt
     for _ in range(HALVINGS):
         middle = 0.5 * (inside + outside)
         move_ballistic(members, at - middle, v, w, acceleration, position, orientation)
         at = middle
-        if _touching(pairs, query, ints, floats):
+        if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
             inside = middle
         else:
             outside = middle
     move_ballistic(members, at - inside, v, w, acceleration, position, orientation)
     return inside
-
-
-@njit
-def _touching(pairs, query, ints, floats):
-    """Whether any of the convex ``pairs`` overlaps or touches: the convex contact test
-    without its speculative margin; ``query`` holds its other inputs, ``ints`` and
-    ``floats`` are its output buffers."""
-    return convex_contacts_for_pairs(pairs, *query, 0.0, 0.0, ints, floats) > 0

@@ -1,0 +1,55 @@
+"""Whether body pairs overlap or touch: the yes/no query of tunnelling and time-of-impact
+searches, which ask it about a few pairs many times over.
+
+Convex pairs answer by the convex contact test without its speculative margin (so the
+answer agrees with the contacts the convex path reports), the others by the OBBTree's
+first intersecting triangle pair. ``touch_inputs`` of the collision pipeline gathers what
+``pairs_touch`` needs besides the pairs and the poses, so that a kernel can ask it in a loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd._jit import njit
+from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs
+from thesis_rbd.collision.narrow_phase import any_intersection
+
+__all__ = ["pairs_touch"]
+
+
+@njit
+def pairs_touch(
+    pairs, position, orientation, center_of_mass_local, hull_of_body, hull_arrays,
+    longest_loop, cache_keys, cache_features, cache_axes, geometry_of_body, geometry_arrays,
+):  # fmt: skip
+    """Whether any of the body ``pairs`` (p, 2) int64 overlaps or touches.
+
+    ``position``, ``orientation``, ``center_of_mass_local`` are the body poses; the hull
+    and cache arguments are as ``convex_contacts_for_pairs`` takes them (a pair is convex
+    when both bodies have a hull, ``hull_of_body`` >= 0), ``geometry_of_body`` and
+    ``geometry_arrays`` as ``narrow_phase.any_intersection`` takes them (``geometry_arrays``
+    None when every body is convex). Convex pairs are asked first, in the order given, then
+    the others.
+    """
+    convex = np.empty(pairs.shape[0], np.bool_)
+    for k in range(pairs.shape[0]):
+        convex[k] = hull_of_body[pairs[k, 0]] >= 0 and hull_of_body[pairs[k, 1]] >= 0
+    convex_pairs = pairs[convex]
+    p = convex_pairs.shape[0]
+    if p > 0:
+        ints = np.empty(1 + 24 * p, np.int64)
+        floats = np.empty(31 * p)
+        count = convex_contacts_for_pairs(
+            convex_pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+            center_of_mass_local, cache_keys, cache_features, cache_axes, 0.0, 0.0, ints,
+            floats,
+        )  # fmt: skip
+        if count > 0:
+            return True
+    if geometry_arrays is None or p == pairs.shape[0]:
+        return False  # (None: every body convex, a branch numba drops when compiling)
+    return any_intersection(
+        pairs[~convex], geometry_of_body, geometry_arrays, position, orientation,
+        center_of_mass_local,
+    )  # fmt: skip
