@@ -9,11 +9,9 @@ then resolves each island with a stepped-back body in two phases:
 1. at the time of impact, the collision: Poisson's compression (no approach, with friction)
    and restitution, e times the compression impulse, for contacts approaching faster than
    their bounce threshold; no force acts during the instant of the collision, so a ball
-   leaves the floor at exactly e times its impact speed. A bouncing contact's compression
-   impulse decides where the bodies fly, so PGS must meet a millionth of the impact speed
-   there; the contacts that only carry the collision (a heap's resting contacts under a
-   falling body) are held to the resting solve's tolerance. A small island PGS cannot bring
-   there is solved exactly;
+   leaves the floor at exactly e times its impact speed. Collisions are rare and their
+   answer decides where the bodies fly, so PGS must meet a millionth of the impact speed,
+   and a small island it cannot bring there is solved exactly;
 2. the rest of the step, t: the velocities the forces would give over t, and a resting-contact
    solve on them, as the contact stage does at the start of every step. A body that the second
    solve pushed (it came to rest, e = 0) moves with its new velocity; one it did not (it
@@ -47,7 +45,7 @@ from thesis_rbd.dynamics.pgs import build_rows
 
 __all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
 
-# PGS velocity tolerance of a bouncing contact, relative to the island's fastest approach.
+# PGS velocity tolerance of a collision, relative to the island's fastest approach.
 IMPACT_TOLERANCE = 1e-6
 
 
@@ -202,11 +200,7 @@ def resolve_impacts(
         bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
         mu[k] = math.sqrt(friction[a] * friction[b])
     for k in range(kept):
-        # holding a heap's resting contacts to a millionth of the impact speed cost hundreds
-        # of sweeps: they get the tolerance every resting contact gets
         tolerance[k] = IMPACT_TOLERANCE * fastest
-        if bounce[k] == 0.0:
-            tolerance[k] = max(tolerance[k], settings[cs.TOLERANCE] * slop[k] / dt)
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
