@@ -39,6 +39,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
+from thesis_rbd.collision.convex_coherence import certify_face_axis
 from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_query, support_vertex
 from thesis_rbd.collision.convex_hull_data import unpack_hulls
 from thesis_rbd.collision.convex_manifold import (
@@ -267,15 +268,23 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, ma
     """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``, exact
     for separations up to ``margin``.
 
-    Pairs of few edges go through the separating-axis test, testing the cached feature
-    first; others through GJK and EPA, starting from the cached axis. (Two boxes take the
-    closed form, ``box_box_query``, called by the caller: this function's unpacking of the
-    hull arrays alone costs a box pair's whole test.)
+    A cached face that ``certify_face_axis`` proves still the answer (a resting pair) ends
+    the query. Otherwise pairs of few edges go through the separating-axis test, testing the
+    cached feature first; others through GJK and EPA, starting from the cached axis. (Two
+    boxes take the closed form, ``box_box_query``, called by the caller: this function's
+    unpacking of the hull arrays alone costs a box pair's whole test.)
     """
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
      edge_faces, edge_arcs, centroids, sizes, _, _, _) = H  # fmt: skip
-    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch
+    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa, M, c = scratch
     tie = _TIE * (sizes[ha] + sizes[hb])
+    if cached_kind == FACE_A or cached_kind == FACE_B:
+        # a resting pair: last step's face, if provably still the answer, needs no search
+        certified, separation, ux, uy, uz = certify_face_axis(
+            H, ha, hb, R, t, cached_kind, cached_i, tie, M, c
+        )
+        if certified:
+            return cached_kind, cached_i, 0, separation, ux, uy, uz
     ea0, ea1 = edge_start[ha], edge_start[ha + 1]
     eb0, eb1 = edge_start[hb], edge_start[hb + 1]
     if (ea1 - ea0) * (eb1 - eb0) > SAT_EDGE_PAIRS:
@@ -313,6 +322,8 @@ def _query_scratch(H):
         np.empty((min(most_f, side), min(most_e, side))),
         np.empty((min(most_e, side), min(most_f, side))),
         epa_scratch(),
+        np.empty((3, 3)),
+        np.empty(3),
     )
 
 
