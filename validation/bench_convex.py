@@ -98,14 +98,15 @@ def test_narrow_phase_per_pair(benchmark, path, shape):
     benchmark.pedantic(run, rounds=20, iterations=1, warmup_rounds=1)
 
 
-def per_pair_costs(blocks: int = 7, calls: int = 5) -> dict[str, float]:
-    """Median per-pair cost (us) of each (shape, path), blocks of calls interleaved.
+def per_pair_costs(blocks: int = 7, calls: int = 5, count: int = COUNT) -> dict[str, float]:
+    """Median per-pair cost (us) of each (shape, path) for ``count`` resting bodies, blocks
+    of calls interleaved.
 
     Timed in thread CPU time, which a machine shared with other work disturbs less than
     wall time.
     """
     results: dict[str, list[float]] = {}
-    scenes = {shape: RestingPairs(shape) for shape in SHAPES}
+    scenes = {shape: RestingPairs(shape, count) for shape in SHAPES}
     for _ in range(blocks):
         for shape, scene in scenes.items():
             for path in ("convex", "mesh"):
@@ -114,7 +115,7 @@ def per_pair_costs(blocks: int = 7, calls: int = 5) -> dict[str, float]:
                 for _ in range(calls):
                     run()
                 seconds = (time.thread_time() - start) / calls
-                results.setdefault(f"{shape}-floor {path}", []).append(1e6 * seconds / COUNT)
+                results.setdefault(f"{shape}-floor {path}", []).append(1e6 * seconds / count)
     return {key: float(np.median(values)) for key, values in results.items()}
 
 

@@ -48,13 +48,17 @@ PAIRS = {"full": 200, "quick": 60, "tiny": 6}
 DEPTHS = (1e-3, 0.02, 0.1)  # of the larger body's size
 BLOCKS, CALLS = 7, 3
 UNIQUE = 1e-8  # the exact axis is unique when the runner-up is deeper by this much of the size
+# bodies resting on one floor in the resting case (validation/bench_convex.py's scene)
+RESTING_COUNT = {"full": 1000, "quick": 1000, "tiny": 20}
+# issue 11's targets per resting pair (us)
+RESTING_TARGETS = {"box": 1.0, "icosphere": 3.0}
 
 
 def cases(scale: str) -> list[Case]:
     return [
         Case(NAME, {"kinds": list(kinds), "pairs": PAIRS[scale], "seed": n}, timed=True)
         for n, kinds in enumerate(KIND_PAIRS)
-    ]
+    ] + [Case(NAME, {"resting": RESTING_COUNT[scale]}, timed=True)]
 
 
 def _shape(kind: str, rng: np.random.Generator):
@@ -158,7 +162,17 @@ def _deepest(found, pair_count):
     return depth, normal
 
 
+def _run_resting(count: int) -> dict:
+    """Per-pair cost of bodies resting on a floor (a box-floor and an icosphere-floor pair
+    per body), both paths in interleaved blocks, as ``python -m validation.bench_convex``."""
+    from validation.bench_convex import per_pair_costs
+
+    return {"pairs": count, "us_per_pair": per_pair_costs(count=count)}
+
+
 def run(params: dict) -> dict:
+    if "resting" in params:
+        return _run_resting(params["resting"])
     scene = _Scene(params["kinds"], params["pairs"], params["seed"])
     count = params["pairs"]
     paths = {"convex": scene.convex_warm, "convex_cold": scene.convex_cold, "mesh": scene.mesh}
@@ -195,7 +209,35 @@ def run(params: dict) -> dict:
     return result
 
 
+def _resting_table(records: list[dict]) -> tuple[list[dict], Table]:
+    rows = []
+    for record in records:
+        r = record["result"]
+        for shape, target in RESTING_TARGETS.items():
+            convex = r["us_per_pair"][f"{shape}-floor convex"]
+            mesh = r["us_per_pair"][f"{shape}-floor mesh"]
+            rows.append({"shape": shape, "pairs": r["pairs"], "convex_us": convex,
+                         "mesh_us": mesh, "target_us": target})  # fmt: skip
+    table = Table(
+        caption="Bodies resting on a floor (validation/bench_convex.py: 0.1 mm deep, tilted by "
+        "up to 1e-4 rad, all pairs in one call, the coherence cache from the call before): "
+        "time per pair (us, thread CPU time, median of interleaved blocks) and issue 11's "
+        "target",
+        columns=["pair", "pairs", "convex (us)", "mesh (us)", "mesh / convex", "target (us)"],
+        rows=[
+            [f"{row['shape']}-floor", str(row["pairs"])]
+            + [format_number(row[k]) for k in ("convex_us", "mesh_us")]
+            + [format_number(row["mesh_us"] / row["convex_us"]), format_number(row["target_us"])]
+            for row in rows
+        ],
+    )
+    return rows, table
+
+
 def summarise(records: list[dict], figures_dir) -> Section:
+    resting = [record for record in records if "resting" in record["params"]]
+    records = [record for record in records if "resting" not in record["params"]]
+    resting_rows, resting_table = _resting_table(resting)
     rows, table = [], []
     for record in records:
         kinds = "-".join(record["params"]["kinds"])
@@ -231,6 +273,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "mesh_worst_depth_error": max(r["mesh_max_depth_error"] or 0.0 for r in rows),
         "convex_missed": sum(r["convex_missed"] for r in rows),
         "mesh_missed": sum(r["mesh_missed"] for r in rows),
+        "resting": resting_rows,
     }
     return Section(
         study=NAME,
@@ -257,6 +300,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
                     "mesh: no contact",
                 ],
                 rows=table,
-            )
+            ),
+            resting_table,
         ],
     )
