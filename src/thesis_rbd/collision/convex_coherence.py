@@ -34,10 +34,11 @@ __all__ = ["certify_face_axis"]
 
 
 @njit
-def _deepest_under(H, row, h_other, M, c):
+def _deepest_under(H, row, h_other, M, c, start):
     """The vertex of hull ``h_other`` deepest under face plane ``row`` (of the reference
-    hull; the other hull is mapped into its frame by x -> M x + c): (depth, x, y, z), the
-    vertex in the reference frame."""
+    hull; the other hull is mapped into its frame by x -> M x + c), climbing from its vertex
+    ``start``: (depth, x, y, z, vertex), the point in the reference frame, the vertex's
+    index in its hull."""
     vertex_start, vertices, neighbor_start, neighbors, planes = H[0], H[1], H[2], H[3], H[8]
     nx, ny, nz = planes[row, 0], planes[row, 1], planes[row, 2]
     # support of the other hull along -n, searched in its own frame along -M^T n
@@ -45,11 +46,15 @@ def _deepest_under(H, row, h_other, M, c):
     ey = -(M[0, 1] * nx + M[1, 1] * ny + M[2, 1] * nz)
     ez = -(M[0, 2] * nx + M[1, 2] * ny + M[2, 2] * nz)
     o0, o1 = vertex_start[h_other], vertex_start[h_other + 1]
-    v = o0 + support_vertex(vertices[o0:o1], neighbor_start[o0 : o1 + 1], neighbors, ex, ey, ez, 0)
+    local = support_vertex(
+        vertices[o0:o1], neighbor_start[o0 : o1 + 1], neighbors, ex, ey, ez,
+        start if 0 <= start < o1 - o0 else 0,
+    )  # fmt: skip
+    v = o0 + local
     x = M[0, 0] * vertices[v, 0] + M[0, 1] * vertices[v, 1] + M[0, 2] * vertices[v, 2] + c[0]
     y = M[1, 0] * vertices[v, 0] + M[1, 1] * vertices[v, 1] + M[1, 2] * vertices[v, 2] + c[1]
     z = M[2, 0] * vertices[v, 0] + M[2, 1] * vertices[v, 1] + M[2, 2] * vertices[v, 2] + c[2]
-    return planes[row, 3] - (nx * x + ny * y + nz * z), x, y, z
+    return planes[row, 3] - (nx * x + ny * y + nz * z), x, y, z, local
 
 
 @njit
@@ -68,7 +73,7 @@ def _deep_under_other_faces(H, h_ref, face, x, y, z, depth):
 
 
 @njit
-def certify_face_axis(H, ha, hb, R, t, kind, face, tie, M, c):
+def certify_face_axis(H, ha, hb, R, t, kind, face, start, tie, M, c):
     """Whether last step's face axis (``kind`` FACE_A or FACE_B, ``face``) is provably the
     separating-axis test's answer for hulls A and B now, and that answer.
 
@@ -80,6 +85,9 @@ def certify_face_axis(H, ha, hb, R, t, kind, face, tie, M, c):
         The hulls; (R, t) maps B's frame into A's: x_A = R x_B + t.
     kind, face : int
         The cached feature.
+    start : int
+        A vertex of the other hull to climb from towards its deepest (last step's: the
+        climb then ends where it starts); any index works, an invalid one means 0.
     tie : float
         As ``sat_query``: separations closer than this count as equal.
     M : (3, 3) float64, c : (3,) float64
@@ -92,27 +100,30 @@ def certify_face_axis(H, ha, hb, R, t, kind, face, tie, M, c):
         Minus the penetration depth (< -tie when certified).
     ux, uy, uz : float
         The axis from A towards B, A's frame.
+    vertex : int
+        The other hull's vertex deepest under the face (B's for FACE_A, A's for FACE_B),
+        its index in that hull; -1 when not certified.
     """
     face_start, planes = H[7], H[8]
     if kind == FACE_A:
         if face < 0 or face >= face_start[ha + 1] - face_start[ha]:
-            return False, 0.0, 0.0, 0.0, 0.0
-        depth, x, y, z = _deepest_under(H, face_start[ha] + face, hb, R, t)
+            return False, 0.0, 0.0, 0.0, 0.0, -1
+        depth, x, y, z, vertex = _deepest_under(H, face_start[ha] + face, hb, R, t, start)
         if depth <= tie or not _deep_under_other_faces(H, ha, face, x, y, z, depth + tie):
-            return False, 0.0, 0.0, 0.0, 0.0
+            return False, 0.0, 0.0, 0.0, 0.0, -1
         row = face_start[ha] + face
-        return True, -depth, planes[row, 0], planes[row, 1], planes[row, 2]
+        return True, -depth, planes[row, 0], planes[row, 1], planes[row, 2], vertex
     if kind != FACE_B or face < 0 or face >= face_start[hb + 1] - face_start[hb]:
-        return False, 0.0, 0.0, 0.0, 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, -1
     # B's frame: x_B = R^T x_A - R^T t
     for i in range(3):
         c[i] = -(R[0, i] * t[0] + R[1, i] * t[1] + R[2, i] * t[2])
         for j in range(3):
             M[i, j] = R[j, i]
     row = face_start[hb] + face
-    depth, x, y, z = _deepest_under(H, row, ha, M, c)
+    depth, x, y, z, vertex = _deepest_under(H, row, ha, M, c, start)
     if depth <= tie or not _deep_under_other_faces(H, hb, face, x, y, z, depth + tie):
-        return False, 0.0, 0.0, 0.0, 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, -1
     # every face of A must lose by more than the tie: a face whose plane lies further than
     # the tie from A's deepest vertex does; the others are measured
     ax = R[0, 0] * x + R[0, 1] * y + R[0, 2] * z + t[0]
@@ -125,10 +136,10 @@ def certify_face_axis(H, ha, hb, R, t, kind, face, tie, M, c):
         )
         if clearance > tie:
             continue
-        separation_g = -_deepest_under(H, a_row, hb, R, t)[0]
+        separation_g = -_deepest_under(H, a_row, hb, R, t, 0)[0]
         if separation_g >= -depth - tie:
-            return False, 0.0, 0.0, 0.0, 0.0
+            return False, 0.0, 0.0, 0.0, 0.0, -1
     ux = -(R[0, 0] * planes[row, 0] + R[0, 1] * planes[row, 1] + R[0, 2] * planes[row, 2])
     uy = -(R[1, 0] * planes[row, 0] + R[1, 1] * planes[row, 1] + R[1, 2] * planes[row, 2])
     uz = -(R[2, 0] * planes[row, 0] + R[2, 1] * planes[row, 1] + R[2, 2] * planes[row, 2])
-    return True, -depth, ux, uy, uz
+    return True, -depth, ux, uy, uz, vertex

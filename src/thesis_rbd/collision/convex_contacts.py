@@ -156,9 +156,10 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
 
 
 @njit
-def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, out):
-    """Hull h's vertex farthest against (nx, ny, nz) (A's frame) into out[0] (A's frame);
-    h is B's hull when ``kind`` is FACE_A (mapped by R, t), A's otherwise."""
+def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, start_vertex, out):
+    """Hull h's vertex farthest against (nx, ny, nz) (A's frame), climbing from its vertex
+    ``start_vertex``, into out[0] (A's frame); h is B's hull when ``kind`` is FACE_A
+    (mapped by R, t), A's otherwise."""
     vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
     v0, v1 = vertex_start[h], vertex_start[h + 1]
     if kind == FACE_A:
@@ -168,7 +169,7 @@ def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, out):
     else:
         mx, my, mz = -nx, -ny, -nz
     v = v0 + support_vertex(vertices[v0:v1], neighbor_start[v0 : v1 + 1], neighbors,
-                            mx, my, mz, 0)  # fmt: skip
+                            mx, my, mz, start_vertex)  # fmt: skip
     x, y, z = vertices[v, 0], vertices[v, 1], vertices[v, 2]
     if kind == FACE_A:
         for a in range(3):
@@ -194,19 +195,21 @@ def _gather_loop(H, h, face, R, t, out):
 
 @njit
 def _face_manifold(
-    H, ha, hb, kind, reference_face, R, t, margin, apart, tolerance, flat,
+    H, ha, hb, kind, reference_face, start_vertex, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
     Ri, ti, out_points, out_depths, out_features, c,
 ):  # fmt: skip
     """Contacts of a face axis into the outputs from row c (world frame); their count.
 
     ``kind`` is FACE_A (reference face on A) or FACE_B; (R, t) maps B into A's frame and
-    (Ri, ti) A into the world. The incident face is kept up to ``margin`` above the
-    reference plane; where none of it is, the incident hull's deepest vertex is the one
-    contact, unless the pair is ``apart`` (then there is none). Each contact's depth is its
-    corner's depth below that plane (negative above it). Of more than four corners, the
-    deepest and the three that span the largest area with it are kept (``four_corners``);
-    corners less deep than the deepest by at most ``flat`` are as deep for that choice.
+    (Ri, ti) A into the world. The incident hull's deepest vertex under the reference face
+    is searched from its vertex ``start_vertex`` (0 when none is known). The incident face
+    is kept up to ``margin`` above the reference plane; where none of it is, the incident
+    hull's deepest vertex is the one contact, unless the pair is ``apart`` (then there is
+    none). Each contact's depth is its corner's depth below that plane (negative above it).
+    Of more than four corners, the deepest and the three that span the largest area with it
+    are kept (``four_corners``); corners less deep than the deepest by at most ``flat`` are
+    as deep for that choice.
     """
     planes, face_start = H[8], H[7]
     if kind == FACE_A:
@@ -217,7 +220,7 @@ def _face_manifold(
         mx = -(R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz)
         my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
         mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
-        incident_face = _incident_face(H, hb, mx, my, mz, 0)
+        incident_face = _incident_face(H, hb, mx, my, mz, start_vertex)
         k = _gather_loop(H, ha, reference_face, _IDENTITY, _ORIGIN, reference)
         m = _gather_loop(H, hb, incident_face, R, t, incident)
     else:
@@ -228,7 +231,7 @@ def _face_manifold(
         ny = R[1, 0] * bx + R[1, 1] * by + R[1, 2] * bz
         nz = R[2, 0] * bx + R[2, 1] * by + R[2, 2] * bz
         d = planes[f, 3] + nx * t[0] + ny * t[1] + nz * t[2]
-        incident_face = _incident_face(H, ha, -nx, -ny, -nz, 0)
+        incident_face = _incident_face(H, ha, -nx, -ny, -nz, start_vertex)
         k = _gather_loop(H, hb, reference_face, R, t, reference)
         m = _gather_loop(H, ha, incident_face, _IDENTITY, _ORIGIN, incident)
     # the incident face's normal (A's frame) against the reference normal
@@ -255,7 +258,7 @@ def _face_manifold(
         # deepest vertex (its support against the reference normal) is the contact
         count = 1
         tags[0] = DEEPEST_VERTEX_TAG
-        _deepest_vertex(H, inc_hull, kind, R, t, nx, ny, nz, points)
+        _deepest_vertex(H, inc_hull, kind, R, t, nx, ny, nz, start_vertex, points)
     n_keep = emit_face_contacts(
         points, tags, depths, count, nx, ny, nz, d, kind, reference_face, incident_face,
         tolerance, flat, keep, Ri, ti, out_points, out_depths, out_features, c,
@@ -268,23 +271,16 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, ma
     """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``, exact
     for separations up to ``margin``.
 
-    A cached face that ``certify_face_axis`` proves still the answer (a resting pair) ends
-    the query. Otherwise pairs of few edges go through the separating-axis test, testing the
-    cached feature first; others through GJK and EPA, starting from the cached axis. (Two
-    boxes take the closed form, ``box_box_query``, called by the caller: this function's
+    Pairs of few edges go through the separating-axis test, testing the cached feature
+    first; others through GJK and EPA, starting from the cached axis. (Two boxes take the
+    closed form, ``box_box_query``, and a resting pair's face that ``certify_face_axis``
+    proves still the answer needs no query; both are called by the caller: this function's
     unpacking of the hull arrays alone costs a box pair's whole test.)
     """
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
      edge_faces, edge_arcs, centroids, sizes, _, _, _) = H  # fmt: skip
-    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa, M, c = scratch
+    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch[:6]
     tie = _TIE * (sizes[ha] + sizes[hb])
-    if cached_kind == FACE_A or cached_kind == FACE_B:
-        # a resting pair: last step's face, if provably still the answer, needs no search
-        certified, separation, ux, uy, uz = certify_face_axis(
-            H, ha, hb, R, t, cached_kind, cached_i, tie, M, c
-        )
-        if certified:
-            return cached_kind, cached_i, 0, separation, ux, uy, uz
     ea0, ea1 = edge_start[ha], edge_start[ha + 1]
     eb0, eb1 = edge_start[hb], edge_start[hb + 1]
     if (ea1 - ea0) * (eb1 - eb0) > SAT_EDGE_PAIRS:
@@ -322,8 +318,6 @@ def _query_scratch(H):
         np.empty((min(most_f, side), min(most_e, side))),
         np.empty((min(most_e, side), min(most_f, side))),
         epa_scratch(),
-        np.empty((3, 3)),
-        np.empty(3),
     )
 
 
@@ -352,7 +346,8 @@ def convex_contacts_for_pairs(
         ``pair_key(i, j)`` of each cached pair.
     cache_features : (k, 3) int64
         [kind, i, j] of the axis that separated the pair or gave its contact last time:
-        ``FACE_A`` face i, ``FACE_B`` face i, ``EDGES`` edge i of A and j of B,
+        ``FACE_A`` face i, ``FACE_B`` face i (j: the other hull's vertex deepest under it
+        where ``certify_face_axis`` found it, else 0), ``EDGES`` edge i of A and j of B,
         ``CACHE_AXIS`` a direction only, 0 nothing.
     cache_axes : (k, 3) float64
         That axis, from A towards B, in A's mesh frame.
@@ -423,6 +418,7 @@ def convex_contacts_for_pairs(
     Ra, ta = np.empty((3, 3)), np.empty(3)
     Rb, tb = np.empty((3, 3)), np.empty(3)
     R, t = np.empty((3, 3)), np.empty(3)
+    M, shift = np.empty((3, 3)), np.empty(3)
     c = 0
     for q in range(p):
         i, j = pairs[q, 0], pairs[q, 1]
@@ -448,9 +444,19 @@ def convex_contacts_for_pairs(
                 cached_kind = cache_features[slot, 0]
                 cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
                 ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
-            kind, fi, fj, separation, ux, uy, uz = _pair_query(
-                H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch
-            )
+            certified = False
+            if cached_kind == FACE_A or cached_kind == FACE_B:
+                # a resting pair: last step's face, if provably still the answer, needs no
+                # search; the cache's third entry is then the other hull's deepest vertex
+                certified, separation, ux, uy, uz, fj = certify_face_axis(
+                    H, ha, hb, R, t, cached_kind, cached_i, cached_j, tolerance, M, shift
+                )
+                kind, fi = cached_kind, cached_i
+            if not certified:
+                kind, fi, fj, separation, ux, uy, uz = _pair_query(
+                    H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin,
+                    scratch,
+                )  # fmt: skip
         new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
         if separation > margin:
@@ -465,7 +471,7 @@ def convex_contacts_for_pairs(
             face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
             if face_kind:
                 count, _, _, _ = _face_manifold(
-                    H, ha, hb, face_kind, face, R, t, margin, apart, tolerance, flat,
+                    H, ha, hb, face_kind, face, 0, R, t, margin, apart, tolerance, flat,
                     reference, incident, points, tags, spare, spare_tags, labels,
                     spare_labels, depths, keep, Ra, ta, out_points, out_depths, out_features, c,
                 )  # fmt: skip
@@ -491,7 +497,7 @@ def convex_contacts_for_pairs(
                 )  # fmt: skip
             else:
                 count, nx, ny, nz = _face_manifold(
-                    H, ha, hb, kind, fi, R, t, margin, apart, tolerance, flat, reference,
+                    H, ha, hb, kind, fi, fj, R, t, margin, apart, tolerance, flat, reference,
                     incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
                     keep, Ra, ta, out_points, out_depths, out_features, c,
                 )  # fmt: skip
