@@ -342,7 +342,7 @@ def test_convex_path_agrees_with_fcl_convex(pair):
     larger of 1e-5 of the size and that.
     """
     fcl = pytest.importorskip("fcl")
-    depth, _normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)
+    depth, exact_normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)
     fcl_tolerance = 10 * 1e-6
     assume(abs(depth) > max(1e-4 * pair.size, fcl_tolerance))
     assume(runner_up > depth + 1e-3 * pair.size)
@@ -370,7 +370,12 @@ def test_convex_path_agrees_with_fcl_convex(pair):
     # fcl is within its tolerance of the exact depth (assumed above), ours within 1e-9 of the
     # size (check_against_oracle)
     assert abs(theirs.penetration_depth - ours["depths"].max()) <= tolerance + 1e-9 * pair.size
-    assert float(-np.asarray(theirs.normal) @ ours["normals"][0]) >= math.cos(1e-3)
+    # and its normal where that is right: on two icospheres (42 vertices each) hypothesis
+    # found fcl's depth within its tolerance but its normal 1.8e-2 rad off the exact one,
+    # which ours met
+    theirs_normal = -np.asarray(theirs.normal)
+    assume(float(theirs_normal @ exact_normal) >= math.cos(1e-3))
+    assert float(theirs_normal @ ours["normals"][0]) >= math.cos(1e-3)
 
 
 def test_coherence_cache_keeps_features_and_answers():
