@@ -106,7 +106,7 @@ def box_frame(vertices, planes, edges, size) -> tuple[np.ndarray, np.ndarray] | 
     return frame, features
 
 
-@njit
+@njit(allocates=False)
 def box_box_query(frames, features, ha, hb, R, t, tie):
     """Separating-axis test of box hulls ha and hb in closed form, in A's hull frame.
 
@@ -224,7 +224,7 @@ def box_box_query(frames, features, ha, hb, R, t, tie):
     return EDGES, edge_a, edge_b, sep_e, ux, uy, uz
 
 
-@njit
+@njit(allocates=False)
 def _rotated_axes(frames, h, R):
     """Box h's three axes turned by R, flattened: (x0, y0, z0, x1, ..., z2)."""
     return (
@@ -240,13 +240,13 @@ def _rotated_axes(frames, h, R):
     )
 
 
-@njit
+@njit(allocates=False)
 def _dot_row(frames, h, k, x, y, z):
     """Box h's axis k dotted with (x, y, z)."""
     return frames[h, k, 0] * x + frames[h, k, 1] * y + frames[h, k, 2] * z
 
 
-@njit
+@njit(allocates=False)
 def _axis(frames, h, m, R, turned):
     """Box h's axis m in A's frame: turned by R if h is B's (``turned``)."""
     x, y, z = frames[h, m, 0], frames[h, m, 1], frames[h, m, 2]
@@ -259,7 +259,7 @@ def _axis(frames, h, m, R, turned):
     )
 
 
-@njit
+@njit(allocates=False)
 def _centre(frames, h, R, t, turned):
     """Box h's centre in A's frame: placed by (R, t) if h is B's (``turned``)."""
     x, y, z = _axis(frames, h, 3, R, turned)
@@ -268,7 +268,7 @@ def _centre(frames, h, R, t, turned):
     return x, y, z
 
 
-@njit
+@njit(allocates=False)
 def _face_corners(frames, h, k, sign, R, t, turned, out):
     """The corners of box h's face along sign * axis k into ``out`` (4, 3), A's frame,
     counter-clockwise seen from outside; returns the face centre's offset along the
@@ -291,7 +291,7 @@ def _face_corners(frames, h, k, sign, R, t, turned, out):
     return sign * (nx * cx + ny * cy + nz * cz)
 
 
-@njit
+@njit(allocates=False)
 def box_face_contacts(
     frames, features, ha, hb, kind, face, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
@@ -353,7 +353,7 @@ def box_face_contacts(
     return n_keep, nx, ny, nz
 
 
-@njit
+@njit(allocates=False)
 def _lying_inside(
     frames, h, k, R, t, turned, nx, ny, nz, d, incident, parallel, margin, tolerance, points,
     tags,

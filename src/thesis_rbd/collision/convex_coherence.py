@@ -33,7 +33,7 @@ from thesis_rbd.collision.convex_sat import FACE_A, FACE_B
 __all__ = ["certify_face_axis"]
 
 
-@njit
+@njit(allocates=False)
 def _deepest_under(H, row, h_other, M, c, start):
     """The vertex of hull ``h_other`` deepest under face plane ``row`` (of the reference
     hull; the other hull is mapped into its frame by x -> M x + c), climbing from its vertex
@@ -57,7 +57,7 @@ def _deepest_under(H, row, h_other, M, c, start):
     return planes[row, 3] - (nx * x + ny * y + nz * z), x, y, z, local
 
 
-@njit
+@njit(allocates=False)
 def _deep_under_other_faces(H, h_ref, face, x, y, z, depth):
     """Whether the point (x, y, z) (hull ``h_ref``'s frame) lies deeper than ``depth``
     under every face of ``h_ref`` but ``face``."""
@@ -72,7 +72,7 @@ def _deep_under_other_faces(H, h_ref, face, x, y, z, depth):
     return True
 
 
-@njit
+@njit(allocates=False)
 def certify_face_axis(H, ha, hb, R, t, kind, face, start, tie, M, c):
     """Whether last step's face axis (``kind`` FACE_A or FACE_B, ``face``) is provably the
     separating-axis test's answer for hulls A and B now, and that answer.

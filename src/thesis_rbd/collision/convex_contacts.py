@@ -106,7 +106,7 @@ def pair_key(i, j):
     return (np.int64(i) << 32) | np.int64(j)
 
 
-@njit
+@njit(allocates=False)
 def _mesh_frame(i, position, orientation, center_of_mass_local, R, t):
     """Body i's mesh-to-world rotation R (3, 3) and translation t (3,)."""
     to_matrix_into(orientation[i], R)
@@ -118,7 +118,7 @@ def _mesh_frame(i, position, orientation, center_of_mass_local, R, t):
         )
 
 
-@njit
+@njit(allocates=False)
 def _relative_frame(Ra, ta, Rb, tb, R, t):
     """B's frame in A's: R = Ra^T Rb, t = Ra^T (tb - ta)."""
     for a in range(3):
@@ -127,7 +127,7 @@ def _relative_frame(Ra, ta, Rb, tb, R, t):
         t[a] = Ra[0, a] * (tb[0] - ta[0]) + Ra[1, a] * (tb[1] - ta[1]) + Ra[2, a] * (tb[2] - ta[2])
 
 
-@njit
+@njit(allocates=False)
 def _incident_face(H, h, mx, my, mz, start_vertex):
     """Face of hull h whose outward normal is most nearly along (mx, my, mz) (hull frame):
     a scan over all faces of a small hull, the faces around the support vertex otherwise."""
@@ -155,7 +155,7 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
     return best_face
 
 
-@njit
+@njit(allocates=False)
 def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, start_vertex, out):
     """Hull h's vertex farthest against (nx, ny, nz) (A's frame), climbing from its vertex
     ``start_vertex``, into out[0] (A's frame); h is B's hull when ``kind`` is FACE_A
@@ -178,7 +178,7 @@ def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, start_vertex, out):
         out[0, 0], out[0, 1], out[0, 2] = x, y, z
 
 
-@njit
+@njit(allocates=False)
 def _gather_loop(H, h, face, R, t, out):
     """Face ``face`` of hull h's corners mapped by x -> R x + t into ``out``; their count."""
     vertex_start, vertices, face_start, loop_start, loops = H[0], H[1], H[7], H[9], H[10]
@@ -193,7 +193,7 @@ def _gather_loop(H, h, face, R, t, out):
     return count
 
 
-@njit
+@njit(allocates=False)
 def _face_manifold(
     H, ha, hb, kind, reference_face, start_vertex, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
@@ -582,7 +582,7 @@ def _unpack(ints: np.ndarray, floats: np.ndarray, c: int, p: int) -> tuple[tuple
     return contacts, cache
 
 
-@njit
+@njit(allocates=False)
 def _face_beside_edges(H, ha, hb, edge_a, edge_b, R, ux, uy, uz):
     """(kind, face) of the face beside edge_a of A or edge_b of B whose outward normal is
     within ``_FLAT_EDGE_ANGLE`` of the edge axis u (A towards B; B's faces face -u); kind 0

@@ -44,7 +44,7 @@ _AXIS_ANGLE = 1e-2
 _AXIS_COSINE = math.cos(_AXIS_ANGLE)
 
 
-@njit
+@njit(allocates=False)
 def support_vertex(vertices, neighbor_start, neighbors, dx, dy, dz, start):
     """Vertex of a hull farthest along (dx, dy, dz), by climbing from vertex ``start``.
 

@@ -58,7 +58,7 @@ _FACE_BITS = 20
 _FACE_MASK = (1 << _FACE_BITS) - 1
 
 
-@njit
+@njit(allocates=False)
 def feature_id(kind, first, second, tag):
     """Feature id of a contact: kind (2 bits), two face or edge indices (20 bits each), tag."""
     return (
@@ -69,7 +69,7 @@ def feature_id(kind, first, second, tag):
     )
 
 
-@njit
+@njit(allocates=False)
 def _clip(src, src_tag, src_label, count, distance, plane, dst, dst_tag, dst_label):
     """Keep the part of polygon ``src`` (first ``count`` rows) whose signed ``distance`` from
     the clip plane is <= 0; returns the new count. A crossing point's label is the clip
@@ -95,7 +95,7 @@ def _clip(src, src_tag, src_label, count, distance, plane, dst, dst_tag, dst_lab
     return out
 
 
-@njit
+@njit(allocates=False)
 def clip_incident_face(
     reference, reference_count, nx, ny, nz, d, incident, incident_count, parallel, margin,
     tolerance, points, tags, spare, spare_tags, labels, spare_labels, distance,
@@ -180,7 +180,7 @@ def clip_incident_face(
     return kept
 
 
-@njit
+@njit(allocates=False)
 def _fan_area(points, o, i, j, nx, ny, nz):
     """Signed area of triangle (o, i, j) of ``points`` seen along (nx, ny, nz), doubled."""
     ax = points[i, 0] - points[o, 0]
@@ -192,7 +192,7 @@ def _fan_area(points, o, i, j, nx, ny, nz):
     return nx * (ay * bz - az * by) + ny * (az * bx - ax * bz) + nz * (ax * by - ay * bx)
 
 
-@njit
+@njit(allocates=False)
 def _best_quad_from(points, count, first, sign, nx, ny, nz):
     """Largest doubled area of a quadrilateral of polygon corners that includes corner
     ``first``, and its other three corners (offsets from ``first`` along the loop).
@@ -223,7 +223,7 @@ def _best_quad_from(points, count, first, sign, nx, ny, nz):
 _TIED_TRIES = 8
 
 
-@njit
+@njit(allocates=False)
 def four_corners(points, depths, count, nx, ny, nz, tie, keep):
     """At most four corners of a convex polygon: the deepest and the largest-area three more.
 
@@ -281,7 +281,7 @@ def four_corners(points, depths, count, nx, ny, nz, tie, keep):
     return 4
 
 
-@njit
+@njit(allocates=False)
 def edge_contact_point(pa, qa, pb, qb):
     """Midpoint of the closest points of segments pa-qa and pb-qb, each (3,).
 
@@ -312,7 +312,7 @@ def edge_contact_point(pa, qa, pb, qb):
     return 0.5 * (ux + vx), 0.5 * (uy + vy), 0.5 * (uz + vz), gap2
 
 
-@njit
+@njit(allocates=False)
 def emit_face_contacts(
     points, tags, depths, count, nx, ny, nz, d, kind, reference_face, incident_face,
     tolerance, flat, keep, Ri, ti, out_points, out_depths, out_features, c,

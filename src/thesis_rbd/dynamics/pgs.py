@@ -49,7 +49,7 @@ def friction_polygon(sides):
     return table
 
 
-@njit
+@njit(allocates=False)
 def project_onto_polygon(x1, x2, radius, polygon):
     """Nearest point to (x1, x2) in the polygon ``polygon`` scaled to circumradius ``radius``."""
     if radius <= 0.0:
@@ -151,7 +151,7 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
     return angular_a, angular_b, response_a, response_b, normal_step, tangent_step
 
 
-@njit
+@njit(allocates=False)
 def _row_velocity(k, d, a, b, basis, angular_a, angular_b, velocity, angular_velocity):
     """u . e_d at contact k: (v_a + w_a x r_a - v_b - w_b x r_b) . e_d."""
     # element reads, not row views: a view of a row costs a reference count in and out,
@@ -164,7 +164,7 @@ def _row_velocity(k, d, a, b, basis, angular_a, angular_b, velocity, angular_vel
     return u
 
 
-@njit
+@njit(allocates=False)
 def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, velocity, w):
     """Impulse j along e_d of contact k: +j on body a at its arm, -j on body b."""
     ma, mb = inverse_mass[a] * j, inverse_mass[b] * j
@@ -175,7 +175,7 @@ def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, veloc
         w[b, i] -= j * response_b[k, d, i]
 
 
-@njit
+@njit(allocates=False)
 def sweep_island(
     start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a, angular_b,
     response_a, response_b, normal_step, tangent_step, inverse_mass, bias, friction,
