@@ -279,7 +279,7 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, ma
     """
     (vertex_start, vertices, _, _, _, _, _, face_start, planes, _, _, edge_start, edges,
      edge_faces, edge_arcs, centroids, sizes, _, _, _) = H  # fmt: skip
-    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch[:6]
+    placed_vertices, placed_planes, placed_arcs, signs_a, signs_b, epa = scratch
     tie = _TIE * (sizes[ha] + sizes[hb])
     ea0, ea1 = edge_start[ha], edge_start[ha + 1]
     eb0, eb1 = edge_start[hb], edge_start[hb + 1]
