@@ -85,8 +85,7 @@ class Pair:
             np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
             self.position, self.orientation, np.zeros((2, 3)), cache, speculative, 0.0,
         )  # fmt: skip
-        keys = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
-        return dict(zip(keys, found, strict=True)), new_cache
+        return dict(found), new_cache
 
 
 def placed_pair(mesh_a, mesh_b, rotation_a, rotation_b, direction, depth_fraction, scale):

@@ -37,7 +37,8 @@ from time import perf_counter
 import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_positive_scalar
-from thesis_rbd.collision.pipeline import CollisionPipeline, empty_contacts
+from thesis_rbd.collision.contact_set import ContactSet
+from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.collision.time_of_impact import step_back_to_impact
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
@@ -74,8 +75,9 @@ STAGE_NAMES = (
 )
 
 
-# the contacts a step without contact impulses acted at
-_NO_CONTACT_ACTED = dict(empty_contacts(), impulses=np.zeros((0, 3)))
+# no contacts, and what a step without contact impulses acted at: (contacts, impulses (c, 3))
+_NO_CONTACTS = ContactSet.empty()
+_NO_CONTACT_ACTED = (_NO_CONTACTS, np.zeros((0, 3)))
 
 
 class NonFiniteStateError(FloatingPointError):
@@ -186,7 +188,7 @@ class World:
         self._contact_stats = np.zeros(len(STATS), np.int64)
         self._impact_count = 0
         # what the stages hand each other (see the module docstring)
-        self._contacts = empty_contacts()  # at the bodies' current positions
+        self._contacts = _NO_CONTACTS  # at the bodies' current positions
         self._acted = _NO_CONTACT_ACTED  # what this step's impulses acted at
         self._candidates = np.zeros((0, 2), np.int64)
         self._fast = np.zeros(0, bool)
@@ -458,19 +460,18 @@ class World:
         return self._awake
 
     def _has_contacts(self) -> bool:
-        return self._awake and len(self._contacts["depths"]) > 0
+        return self._awake and self._contacts.count > 0
 
     def _stage_contacts(self) -> None:
         """Impulses of the contacts where the bodies are now, before they move."""
         b, c, pf = self.bodies, self._contacts, self._point_forces
-        count = len(c["depths"])
+        count = c.count
         impulses = np.empty((count, 3))
         warm = self._warm_start
         keys, values = np.empty((count, 2), np.int64), np.empty((count, 6))
         stats = self._contact_stats
         solve_contacts(
-            self._settings, self._polygon, b.count, self._frozen,
-            c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"], c["features"],
+            self._settings, self._polygon, b.count, self._frozen, c.ints, c.floats, count,
             *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
             pf.arm, pf.force, warm.keys, warm.values, keys, values, impulses, self._solved,
             stats,
@@ -478,7 +479,7 @@ class World:
         warm.keys, warm.values = keys, values
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))
-        self._acted = dict(c, impulses=impulses)
+        self._acted = (c, impulses)
         self._impact_count = 0
 
     def _stage_integrate(self) -> None:
@@ -512,7 +513,7 @@ class World:
         moving body and overlapping tight boxes."""
         self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
         if len(self._candidates) == 0:
-            self._contacts = empty_contacts()  # the narrow phase will not run this step
+            self._contacts = _NO_CONTACTS  # the narrow phase will not run this step
 
     def _has_candidates(self) -> bool:
         return self._awake and len(self._candidates) > 0
@@ -543,7 +544,7 @@ class World:
         if not self._has_contacts():
             return False
         c = self._contacts
-        return any_free_body(c["body_a"], c["body_b"], self._frozen, self._solved)
+        return any_free_body(c.ints, c.count, self._frozen, self._solved)
 
     def _stage_time_of_impact(self) -> None:
         """Bodies in free flight that ran into something go back to when they touched."""
@@ -571,7 +572,7 @@ class World:
     def _stage_impacts(self) -> None:
         """Collisions at the time of impact, then the rest of the step for those bodies."""
         b, c, pf = self.bodies, self._contacts, self._point_forces
-        impulses = np.zeros((len(c["depths"]), 3))
+        impulses = np.zeros((c.count, 3))
         stats, resolved = resolve_impacts(
             self._settings, self._polygon, b.count, self._frozen, self._rewind,
             c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"],
@@ -581,9 +582,11 @@ class World:
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))
         self._rewind[:] = 0.0
-        hit = {key: value[resolved] for key, value in c.items()}
-        hit["impulses"] = impulses[resolved]
-        self._acted = {key: np.concatenate([self._acted[key], hit[key]]) for key in hit}
+        acted, acted_impulses = self._acted
+        self._acted = (
+            ContactSet.concatenate([acted, c.select(resolved)]),
+            np.concatenate([acted_impulses, impulses[resolved]]),
+        )
         self._impact_count = int(stats[0])
 
     def _sleep_due(self) -> bool:
@@ -600,7 +603,7 @@ class World:
             # contacts between sleeping (or static) bodies need no solving
             c = self._contacts
             active = ~(self._frozen[c["body_a"]] & self._frozen[c["body_b"]])
-            self._contacts = {key: value[active] for key, value in c.items()}
+            self._contacts = c.select(active)
 
     @property
     def contact_info(self) -> dict:
@@ -633,10 +636,13 @@ class World:
         contacts the narrow phase found at the end of the step, with zero impulses.
         """
         if self.contact_response:
-            source = self._acted
+            contacts, impulses = self._acted
         else:
-            source = dict(self._contacts, impulses=np.zeros((len(self._contacts["depths"]), 3)))
-        return {key: value.copy() for key, value in source.items()}
+            contacts = self._contacts
+            impulses = np.zeros((contacts.count, 3))
+        found = {key: value.copy() for key, value in contacts.items()}
+        found["impulses"] = impulses.copy()
+        return found
 
     # ------------------------------------------------------------------ accessors
     def _check_body(self, body) -> int:

@@ -150,8 +150,12 @@ class _Scene:
 
 
 def _deepest(found, pair_count):
-    """Per pair, the deepest contact's (depth, normal); NaN where the pair has none."""
-    body_a, normals, depths = found[0], found[3], found[4]
+    """Per pair, the deepest contact's (depth, normal); NaN where the pair has none.
+    ``found`` is the convex path's ``ContactSet`` or the mesh kernel's tuple."""
+    if isinstance(found, tuple):
+        body_a, normals, depths = found[0], found[3], found[4]
+    else:
+        body_a, normals, depths = found["body_a"], found["normals"], found["depths"]
     depth = np.full(pair_count, -np.inf)
     normal = np.full((pair_count, 3), np.nan)
     for row in range(len(depths)):

@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet
 from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
 from thesis_rbd.collision.convex_coherence import certify_face_axis
 from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_query, support_vertex
@@ -55,6 +56,8 @@ from thesis_rbd.spatial.quaternion import to_matrix_into
 
 __all__ = [
     "CACHE_AXIS",
+    "OUTPUT_FLOATS",
+    "OUTPUT_INTS",
     "SAT_EDGE_PAIRS",
     "SPECULATIVE_FRACTION",
     "convex_contacts",
@@ -71,6 +74,10 @@ __all__ = [
 # resting contact is found on either side of touching; and small enough that few pairs
 # merely passing close by become contacts (each costs the solver a row).
 SPECULATIVE_FRACTION = 1e-3
+# Output entries per pair: up to four contacts (``ContactSet`` layout), then the pair's cache
+# row (key and three features; three axis components)
+OUTPUT_INTS = 4 * INT_WIDTH + 4
+OUTPUT_FLOATS = 4 * FLOAT_WIDTH + 3
 # Pairs whose edge counts multiply to at most this go through the separating-axis test,
 # larger ones through GJK and EPA: the SAT's cost grows with the product, GJK/EPA's hardly;
 # resting on a box, the SAT was the faster at 576 (a 16-sided cylinder) and GJK/EPA at 1152.
@@ -360,10 +367,11 @@ def convex_contacts_for_pairs(
         under gravity over the step, so that a small body resting on another keeps its
         contact while a solver's round-off lifts it.
 
-    ints, floats : (>= 1 + 24 p,) int64 and (>= 31 p,) float64
-        Out: everything below, packed (at most four contacts a pair); ``convex_contacts``
-        gives it back as arrays. (Written, not returned: each array a kernel returns costs
-        about a microsecond to hand to Python, a small scene's whole narrow phase.)
+    ints, floats : (>= OUTPUT_INTS p,) int64 and (>= OUTPUT_FLOATS p,) float64
+        Out: everything below (at most four contacts a pair): the contacts laid out as a
+        ``ContactSet``'s, then the cache's keys and features (ints) and axes (floats).
+        (Written, not returned: each array a kernel returns costs about a microsecond to
+        hand to Python, a small scene's whole narrow phase.)
 
     Returns
     -------
@@ -525,28 +533,27 @@ def convex_contacts_for_pairs(
             out_depths[r] = -separation if above <= level else -separation - above
         c += count
 
-    # packed into the two output arrays (see ``_unpack``)
+    # packed into the two output arrays: the contacts as a ``ContactSet``, then the cache
     order = np.arange(p)
     for q in range(1, p):
         if new_keys[q] < new_keys[q - 1]:  # (the broad phase's pairs come sorted)
             order = np.argsort(new_keys)
             break
-    ints[0] = c
     for r in range(c):
-        ints[1 + r] = body_a[r]
-        ints[1 + c + r] = body_b[r]
-        ints[1 + 2 * c + r] = out_features[r]
-        ints[1 + 3 * c + 2 * r] = -1
-        ints[2 + 3 * c + 2 * r] = -1
+        ints[r] = body_a[r]
+        ints[c + r] = body_b[r]
+        ints[2 * c + r] = out_features[r]
+        ints[3 * c + 2 * r] = -1
+        ints[3 * c + 2 * r + 1] = -1
         for a in range(3):
             floats[3 * r + a] = out_points[r, a]
             floats[3 * c + 3 * r + a] = out_normals[r, a]
         floats[6 * c + r] = out_depths[r]
     for m in range(p):
         q = order[m]
-        ints[1 + 5 * c + m] = new_keys[q]
+        ints[5 * c + m] = new_keys[q]
         for a in range(3):
-            ints[1 + 5 * c + p + 3 * m + a] = new_features[q, a]
+            ints[5 * c + p + 3 * m + a] = new_features[q, a]
             floats[7 * c + 3 * m + a] = new_axes[q, a]
     return c
 
@@ -554,32 +561,22 @@ def convex_contacts_for_pairs(
 def convex_contacts(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation, center_of_mass_local,
     cache, speculative, reach,
-) -> tuple[tuple, tuple]:  # fmt: skip
+) -> tuple[ContactSet, tuple]:  # fmt: skip
     """``convex_contacts_for_pairs`` (same arguments, ``cache`` the triple (keys, features,
-    axes)), its output unpacked into contiguous views: ((body_a, body_b, points, normals,
-    depths, faces, features), (cache_keys, cache_features, cache_axes))."""
+    axes)): the contacts as a ``ContactSet`` and the new cache as contiguous views
+    (cache_keys, cache_features, cache_axes)."""
     p = len(pairs)
-    ints, floats = np.empty(1 + 24 * p, np.int64), np.empty(31 * p)
+    ints, floats = np.empty(OUTPUT_INTS * p, np.int64), np.empty(OUTPUT_FLOATS * p)
     c = convex_contacts_for_pairs(
         pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
         center_of_mass_local, *cache, speculative, reach, ints, floats,
     )  # fmt: skip
-    return _unpack(ints, floats, c, p)
-
-
-def _unpack(ints: np.ndarray, floats: np.ndarray, c: int, p: int) -> tuple[tuple, tuple]:
-    """The contacts and the cache of ``convex_contacts_for_pairs``'s packed output."""
-    contacts = (
-        ints[1 : 1 + c], ints[1 + c : 1 + 2 * c], floats[: 3 * c].reshape(c, 3),
-        floats[3 * c : 6 * c].reshape(c, 3), floats[6 * c : 7 * c],
-        ints[1 + 3 * c : 1 + 5 * c].reshape(c, 2), ints[1 + 2 * c : 1 + 3 * c],
-    )  # fmt: skip
     cache = (
-        ints[1 + 5 * c : 1 + 5 * c + p],
-        ints[1 + 5 * c + p : 1 + 5 * c + 4 * p].reshape(p, 3),
-        floats[7 * c : 7 * c + 3 * p].reshape(p, 3),
+        ints[INT_WIDTH * c : INT_WIDTH * c + p],
+        ints[INT_WIDTH * c + p : INT_WIDTH * c + 4 * p].reshape(p, 3),
+        floats[FLOAT_WIDTH * c : FLOAT_WIDTH * c + 3 * p].reshape(p, 3),
     )
-    return contacts, cache
+    return ContactSet(ints, floats, c), cache
 
 
 @njit(allocates=False)

@@ -5,7 +5,7 @@ Rapier-style, the stages talk through explicit arrays that one returns and the n
 the fat boxes when one was left (``bounds.py``) and returns the fast bodies; ``broad_phase``
 brings the sweep-and-prune pair cache up to date only when the fat boxes changed and returns
 the candidate pairs worth testing (tight boxes overlap, never static-static, never two resting
-bodies); ``narrow_phase`` turns candidate pairs into contacts (a dict of arrays, world frame,
+bodies); ``narrow_phase`` turns candidate pairs into contacts (a ``ContactSet``, world frame,
 normals from body_b towards body_a); ``sweep`` puts back fast bodies that passed through
 something and returns the contacts with theirs. Fat boxes only add pairs for the tight-box
 test, so the candidates are those of a broad phase on tight boxes, while bodies in steady
@@ -23,6 +23,7 @@ from thesis_rbd.collision.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
+from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
@@ -33,29 +34,15 @@ from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
 from thesis_rbd.collision.sap import SweepAndPrune
 from thesis_rbd.collision.touching import pairs_touch
 
-__all__ = ["NARROW_PHASES", "CollisionPipeline", "empty_contacts"]
+__all__ = ["NARROW_PHASES", "CollisionPipeline"]
 
 # "auto": pairs of convex bodies by convex-polyhedron contact, the others by the OBBTree;
 # "mesh": the OBBTree for every pair
 NARROW_PHASES = ("auto", "mesh")
 
-_CONTACT_KEYS = ("body_a", "body_b", "points", "normals", "depths", "faces", "features")
 _NO_BODIES = np.zeros(0, np.int64)
 _NO_PAIRS = np.zeros((0, 2), np.int64)
 _NO_BODIES.flags.writeable = _NO_PAIRS.flags.writeable = False
-
-
-def empty_contacts() -> dict[str, np.ndarray]:
-    """A contact set with no rows (keys as ``CollisionPipeline.contacts_of`` returns them)."""
-    return {
-        "body_a": np.zeros(0, np.int64),
-        "body_b": np.zeros(0, np.int64),
-        "points": np.zeros((0, 3)),
-        "normals": np.zeros((0, 3)),
-        "depths": np.zeros(0),
-        "faces": np.zeros((0, 2), np.int64),
-        "features": np.zeros(0, np.int64),
-    }
 
 
 class CollisionPipeline:
@@ -218,7 +205,7 @@ class CollisionPipeline:
             Positions and orientations of caught bodies are put back.
         pairs : (p, 2) int64
             This step's candidate pairs.
-        contacts : dict of arrays
+        contacts : ContactSet
             This step's contacts.
         fast : (n,) bool
         start_position, start_orientation : (n, 3), (n, 4) float64
@@ -226,7 +213,7 @@ class CollisionPipeline:
 
         Returns
         -------
-        contacts : dict of arrays
+        contacts : ContactSet
             ``contacts`` with the caught bodies' contacts found again where they were put.
         caught : int
             Number of bodies put back.
@@ -259,9 +246,7 @@ class CollisionPipeline:
         moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
         fresh = self.contacts_of(bodies, np.ascontiguousarray(pairs[moved]))
         keep = ~(np.isin(contacts["body_a"], caught) | np.isin(contacts["body_b"], caught))
-        return {key: np.concatenate([contacts[key][keep], fresh[key]]) for key in fresh}, len(
-            caught
-        )
+        return ContactSet.concatenate([contacts.select(keep), fresh]), len(caught)
 
     def broad_phase(self, bodies, resting: np.ndarray) -> np.ndarray:
         """Update the pair cache if the fat boxes changed; return the pairs worth testing.
@@ -308,8 +293,8 @@ class CollisionPipeline:
             SPECULATIVE_FRACTION, self._reach, out,
         )  # fmt: skip
 
-    def narrow_phase(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
-        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``empty_contacts``;
+    def narrow_phase(self, bodies, pairs: np.ndarray) -> ContactSet:
+        """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``ContactSet``;
         convex pairs a small gap apart have speculative contacts, depth < 0); the convex
         pairs' coherence cache is kept for the next step."""
         return self._contacts(bodies, pairs, keep_cache=True)
@@ -338,11 +323,11 @@ class CollisionPipeline:
             bodies.full("center_of_mass_local"), *self.touch_inputs(),
         )  # fmt: skip
 
-    def contacts_of(self, bodies, pairs: np.ndarray) -> dict[str, np.ndarray]:
-        """Contacts of the body ``pairs`` (p, 2) in the current state (see ``empty_contacts``)."""
+    def contacts_of(self, bodies, pairs: np.ndarray) -> ContactSet:
+        """Contacts of the body ``pairs`` (p, 2) in the current state (see ``ContactSet``)."""
         return self._contacts(bodies, pairs, keep_cache=False)
 
-    def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> dict[str, np.ndarray]:
+    def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> ContactSet:
         """Contacts of ``pairs``: convex pairs by the convex kernel, the others by the
         OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step.
         A scene whose bodies are all convex (or none) makes one kernel call and nothing else."""
@@ -363,9 +348,9 @@ class CollisionPipeline:
             self._mesh_contacts(np.ascontiguousarray(pairs[~convex]), state),
             self._convex_contacts(np.ascontiguousarray(pairs[convex]), state, keep_cache),
         ]
-        return {key: np.concatenate([part[key] for part in parts]) for key in _CONTACT_KEYS}
+        return ContactSet.concatenate(parts)
 
-    def _mesh_contacts(self, pairs, state) -> dict[str, np.ndarray]:
+    def _mesh_contacts(self, pairs, state) -> ContactSet:
         """Contacts of mesh pairs by the OBBTree path (no feature ids)."""
         *found, stats = contacts_for_pairs(
             pairs, self.geometry_of_body, self.geometry.arrays(), *state
@@ -373,16 +358,20 @@ class CollisionPipeline:
         self.stats.update(
             bv_tests=int(stats[0]), tri_box_tests=int(stats[1]), tri_tests=int(stats[2])
         )
-        contacts = dict(zip(_CONTACT_KEYS, found, strict=False))
-        contacts["features"] = np.full(len(found[4]), -1, np.int64)
-        return contacts
+        body_a, body_b, points, normals, depths, faces = found
+        return ContactSet.from_fields(
+            dict(
+                body_a=body_a, body_b=body_b, points=points, normals=normals, depths=depths,
+                faces=faces, features=np.full(len(depths), -1, np.int64),
+            )
+        )  # fmt: skip
 
-    def _convex_contacts(self, pairs, state, keep_cache: bool) -> dict[str, np.ndarray]:
+    def _convex_contacts(self, pairs, state, keep_cache: bool) -> ContactSet:
         """Contacts of convex pairs by the convex kernel, with its coherence cache."""
-        found, cache = convex_contacts(
+        contacts, cache = convex_contacts(
             pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
             self.convex_cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
         if keep_cache:
             self.convex_cache = cache
-        return dict(zip(_CONTACT_KEYS, found, strict=True))
+        return contacts

@@ -23,6 +23,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd._union_find import find_root, join
+from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.convex_contacts import pair_key
 from thesis_rbd.collision.touching import pairs_touch
 from thesis_rbd.spatial.quaternion import mul, normalize
@@ -128,7 +129,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
         Gives ``touch_inputs()`` and answers ``contacts_of(bodies, pairs)``.
     bodies : BodyArrays
         Positions and orientations of stepped-back bodies are moved to their time of impact.
-    contacts : dict of arrays
+    contacts : ContactSet
         This step's contacts at the end of the step.
     hits : (c,) bool
         Contacts that a mover ran into during the step.
@@ -146,7 +147,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
     -------
     rewind : (n,) float64
         How far (s) each body went back; 0 for bodies left where they were.
-    contacts : dict of arrays
+    contacts : ContactSet
         The contact set with the stepped-back bodies' contacts found again where they are now.
     """
     n = bodies.count
@@ -168,7 +169,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
         return rewind, contacts
     fresh = detector.contacts_of(bodies, unique_pairs(body_a, body_b, renewed))
     kept = ~renewed
-    return rewind, {key: np.concatenate([contacts[key][kept], fresh[key]]) for key in fresh}
+    return rewind, ContactSet.concatenate([contacts.select(kept), fresh])
 
 
 @njit

@@ -12,7 +12,11 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.convex_contacts import convex_contacts_for_pairs
+from thesis_rbd.collision.convex_contacts import (
+    OUTPUT_FLOATS,
+    OUTPUT_INTS,
+    convex_contacts_for_pairs,
+)
 from thesis_rbd.collision.narrow_phase import any_intersection
 
 __all__ = ["pairs_touch"]
@@ -38,8 +42,8 @@ def pairs_touch(
     convex_pairs = pairs[convex]
     p = convex_pairs.shape[0]
     if p > 0:
-        ints = np.empty(1 + 24 * p, np.int64)
-        floats = np.empty(31 * p)
+        ints = np.empty(OUTPUT_INTS * p, np.int64)
+        floats = np.empty(OUTPUT_FLOATS * p)
         count = convex_contacts_for_pairs(
             convex_pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
             center_of_mass_local, cache_keys, cache_features, cache_axes, 0.0, 0.0, ints,

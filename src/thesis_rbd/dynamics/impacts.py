@@ -50,10 +50,11 @@ IMPACT_TOLERANCE = 1e-6
 
 
 @njit
-def any_free_body(body_a, body_b, frozen, solved):
-    """Whether a contact has a body that is neither frozen nor moved by the contact stage."""
-    for k in range(body_a.shape[0]):
-        a, b = body_a[k], body_b[k]
+def any_free_body(contact_ints, count, frozen, solved):
+    """Whether a contact has a body that is neither frozen nor moved by the contact stage
+    (``contact_ints`` and ``count`` of a ``ContactSet``: its bodies a and b come first)."""
+    for k in range(count):
+        a, b = contact_ints[k], contact_ints[count + k]
         if not (frozen[a] or solved[a]) or not (frozen[b] or solved[b]):
             return True
     return False

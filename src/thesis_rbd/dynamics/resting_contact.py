@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.contact_set import contact_views
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import (
     body_velocities,
@@ -62,8 +63,7 @@ STATS = ("islands", "sweeps", "max_sweeps", "exact_islands", "unconverged", "bad
 
 @njit
 def solve_contacts(
-    settings, polygon, count, static,
-    body_a, body_b, points, normals, depths, features,
+    settings, polygon, count, static, contact_ints, contact_floats, contact_count,
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
@@ -81,10 +81,10 @@ def solve_contacts(
         Number of bodies n.
     static : (>= n,) bool
         Bodies that do not move this step (static or asleep).
-    body_a, body_b, points, normals, depths, features
-        The contacts (c rows) at the start of the step: bodies, world points, unit normals
-        from b towards a, penetration depths (negative: a gap not yet closed), feature ids
-        (-1: none).
+    contact_ints, contact_floats, contact_count
+        The c contacts at the start of the step, packed as a ``ContactSet``: bodies, world
+        points, unit normals from b towards a, penetration depths (negative: a gap not yet
+        closed), feature ids (-1: none).
     position, orientation, linear_momentum, angular_momentum
         Body state (>= n rows). The momenta of bodies hit by an impulse become P = M v+,
         L = I w+ (world); position correction moves bodies.
@@ -108,7 +108,10 @@ def solve_contacts(
     """
     dt = settings[cs.DT]
     rate = settings[cs.BIAS_RATE]
-    c = body_a.shape[0]
+    c = contact_count
+    body_a, body_b, points, normals, depths, _, features = contact_views(
+        contact_ints, contact_floats, c
+    )
     n = count
     stats[:] = 0
     stats[5] = -1

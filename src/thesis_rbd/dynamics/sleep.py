@@ -178,7 +178,7 @@ class SleepState:
         ----------
         bodies : BodyArrays
             After the contact response.
-        contacts : dict of arrays
+        contacts : ContactSet
             This step's contacts (they define the islands).
         dt : float
 
