@@ -17,7 +17,7 @@ import thesis_rbd as rbd
 from tests.reference_convex import least_penetration
 from tests.test_convex_contacts import Pair, face_pairs, pairs
 from thesis_rbd.collision.convex_coherence import certify_face_axis
-from thesis_rbd.collision.convex_contacts import _TIE
+from thesis_rbd.collision.convex_contacts import _TIE, cache_views
 from thesis_rbd.collision.convex_hull_data import unpack_hulls
 from thesis_rbd.collision.convex_sat import FACE_A, FACE_B
 
@@ -123,7 +123,7 @@ def test_a_face_of_b_gives_way_to_a_face_of_a_it_ties_with():
         can, floor, (np.array([0.0, 0.0, 0.5 - lowest - 1e-4]), tipped), (np.zeros(3), identity)
     )
     _, cache = pair.contacts()
-    assert cache[1][0, 0] == FACE_B
+    assert cache_views(cache)[1][0, 0] == FACE_B
     pair.orientation[0] = identity
     cold, _ = pair.contacts()
     warm, _ = pair.contacts(cache)

@@ -23,8 +23,10 @@ from tests.reference_convex import (
 from thesis_rbd.collision.convex_contacts import (
     _TIE,
     SPECULATIVE_FRACTION,
+    cache_views,
     convex_contacts,
     empty_cache,
+    pack_cache,
     pair_key,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
@@ -387,9 +389,10 @@ def test_coherence_cache_keeps_features_and_answers():
     again, cache2 = pair.contacts(cache)
     for key in first:
         np.testing.assert_array_equal(first[key], again[key])
-    for a, b in zip(cache, cache2, strict=False):
+    for a, b in zip(cache_views(cache), cache_views(cache2), strict=True):
         np.testing.assert_array_equal(a, b)
-    assert cache[0].tolist() == [1] and cache[1][0, 0] in (1, 2)
+    keys, features, _ = cache_views(cache)
+    assert keys.tolist() == [1] and features[0, 0] in (1, 2)
     assert len(set(first["features"])) == 4
     pair.position[1] += [1e-3, -1e-3, 0]
     moved, _ = pair.contacts(cache)
@@ -397,8 +400,8 @@ def test_coherence_cache_keeps_features_and_answers():
     pair.position[1, 2] += 0.1
     apart, cache3 = pair.contacts(cache)
     assert len(apart["depths"]) == 0
-    assert cache3[1][0, 0] == 1  # separated by A's top face
-    np.testing.assert_allclose(cache3[2][0], [0, 0, 1.0])
+    assert cache_views(cache3)[1][0, 0] == 1  # separated by A's top face
+    np.testing.assert_allclose(cache_views(cache3)[2][0], [0, 0, 1.0])
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -434,7 +437,7 @@ def test_a_stale_cached_edge_pair_does_not_hide_an_overlap(seed_a, seed_b):
             break
     assume(stale is not None)
     i, j, u = stale
-    cache = (np.array([pair_key(0, 1)]), np.array([[EDGES, i, j]]), u[None])
+    cache = pack_cache([pair_key(0, 1)], [[EDGES, i, j]], u[None])
     cold, _ = pair.contacts()
     warm, _ = pair.contacts(cache)
     assert len(warm["depths"]) == len(cold["depths"]) >= 1

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import thesis_rbd as rbd
+from thesis_rbd.collision.convex_contacts import cache_views
 
 FLOOR = rbd.shapes.box((6.0, 6.0, 1.0))
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))
@@ -38,7 +39,7 @@ def test_auto_sends_convex_pairs_to_the_convex_kernel_and_the_rest_to_the_tree()
     assert (contacts["features"][torus] == -1).all()
     assert pipeline.stats["convex_pairs"] == 1
     # the convex pair's coherence cache holds that pair, keyed (0, 1)
-    assert pipeline.convex_cache[0].tolist() == [1]
+    assert cache_views(pipeline.convex_cache)[0].tolist() == [1]
 
 
 def test_mesh_sends_every_pair_to_the_tree():

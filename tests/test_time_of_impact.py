@@ -46,13 +46,13 @@ def python_bisection(detector, bodies, members, pairs, v, w, acceleration, dt):
         at = t
 
     move_to(dt)
-    if detector.intersects(bodies, pairs):
+    if detector.intersects(pairs):
         return dt
     inside, outside = 0.0, dt
     for _ in range(HALVINGS):
         middle = 0.5 * (inside + outside)
         move_to(middle)
-        if detector.intersects(bodies, pairs):
+        if detector.intersects(pairs):
             inside = middle
         else:
             outside = middle

@@ -342,7 +342,7 @@ class World:
         # that lost its support for a step falls g dt^2 and gains g dt): a 2 mm cube's is
         # 8 % of its edge, far beyond the margin relative to its size
         reach = 2.0 * float(np.linalg.norm(self.gravity)) * self.dt**2
-        self._collision.plan(b.static, collidable, reach)
+        self._collision.plan(b, reach)
         n = b.count
         self._start_position = b.position.copy()
         self._start_orientation = b.orientation.copy()
@@ -511,7 +511,7 @@ class World:
     def _stage_broad_phase(self) -> None:
         """Sweep-and-prune on the fat boxes if they changed; candidate pairs with at least one
         moving body and overlapping tight boxes."""
-        self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
+        self._candidates = self._collision.broad_phase(self._frozen)
         if len(self._candidates) == 0:
             self._contacts = _NO_CONTACTS  # the narrow phase will not run this step
 
@@ -521,12 +521,12 @@ class World:
     def _stage_narrow_phase(self) -> None:
         """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
         the OBBTree); a touched sleeping island wakes."""
-        self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
+        self._contacts = self._collision.narrow_phase(self._candidates)
         if self._any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
             self._sleep_changed()
             # the woken islands' own contacts were not candidates: find them now
-            self._candidates = self._collision.broad_phase(self.bodies, self._frozen)
-            self._contacts = self._collision.narrow_phase(self.bodies, self._candidates)
+            self._candidates = self._collision.broad_phase(self._frozen)
+            self._contacts = self._collision.narrow_phase(self._candidates)
 
     def _has_fast_bodies(self) -> bool:
         return self._awake and self._fast_count > 0

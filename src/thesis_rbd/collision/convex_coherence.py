@@ -27,7 +27,7 @@ face) goes to the full query.
 from __future__ import annotations
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.convex_gjk import support_vertex
+from thesis_rbd.collision.convex_gjk import mapped_support
 from thesis_rbd.collision.convex_sat import FACE_A, FACE_B
 
 __all__ = ["certify_face_axis"]
@@ -39,21 +39,9 @@ def _deepest_under(H, row, h_other, M, c, start):
     hull; the other hull is mapped into its frame by x -> M x + c), climbing from its vertex
     ``start``: (depth, x, y, z, vertex), the point in the reference frame, the vertex's
     index in its hull."""
-    vertex_start, vertices, neighbor_start, neighbors, planes = H[0], H[1], H[2], H[3], H[8]
+    planes = H[8]
     nx, ny, nz = planes[row, 0], planes[row, 1], planes[row, 2]
-    # support of the other hull along -n, searched in its own frame along -M^T n
-    ex = -(M[0, 0] * nx + M[1, 0] * ny + M[2, 0] * nz)
-    ey = -(M[0, 1] * nx + M[1, 1] * ny + M[2, 1] * nz)
-    ez = -(M[0, 2] * nx + M[1, 2] * ny + M[2, 2] * nz)
-    o0, o1 = vertex_start[h_other], vertex_start[h_other + 1]
-    local = support_vertex(
-        vertices[o0:o1], neighbor_start[o0 : o1 + 1], neighbors, ex, ey, ez,
-        start if 0 <= start < o1 - o0 else 0,
-    )  # fmt: skip
-    v = o0 + local
-    x = M[0, 0] * vertices[v, 0] + M[0, 1] * vertices[v, 1] + M[0, 2] * vertices[v, 2] + c[0]
-    y = M[1, 0] * vertices[v, 0] + M[1, 1] * vertices[v, 1] + M[1, 2] * vertices[v, 2] + c[1]
-    z = M[2, 0] * vertices[v, 0] + M[2, 1] * vertices[v, 1] + M[2, 2] * vertices[v, 2] + c[2]
+    x, y, z, local = mapped_support(H, h_other, M, c, -nx, -ny, -nz, start)
     return planes[row, 3] - (nx * x + ny * y + nz * z), x, y, z, local
 
 

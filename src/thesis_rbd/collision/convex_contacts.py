@@ -41,7 +41,13 @@ from thesis_rbd._jit import njit
 from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet
 from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
 from thesis_rbd.collision.convex_coherence import certify_face_axis
-from thesis_rbd.collision.convex_gjk import CACHE_AXIS, epa_scratch, gjk_epa_query, support_vertex
+from thesis_rbd.collision.convex_gjk import (
+    CACHE_AXIS,
+    epa_scratch,
+    gjk_epa_query,
+    mapped_support,
+    support_vertex,
+)
 from thesis_rbd.collision.convex_hull_data import unpack_hulls
 from thesis_rbd.collision.convex_manifold import (
     DEEPEST_VERTEX_TAG,
@@ -60,6 +66,7 @@ __all__ = [
     "OUTPUT_INTS",
     "SAT_EDGE_PAIRS",
     "SPECULATIVE_FRACTION",
+    "cache_views",
     "convex_contacts",
     "convex_contacts_for_pairs",
     "empty_cache",
@@ -102,9 +109,34 @@ _IDENTITY = np.eye(3)
 _ORIGIN = np.zeros(3)
 
 
-def empty_cache() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A coherence cache with no pair: keys (0,) int64, features (0, 3) int64, axes (0, 3)."""
-    return np.zeros(0, np.int64), np.zeros((0, 3), np.int64), np.zeros((0, 3))
+def empty_cache() -> tuple:
+    """A coherence cache with no pair, as ``convex_contacts`` takes and returns it:
+    (ints, floats, int offset, float offset, pairs)."""
+    return np.zeros(0, np.int64), np.zeros(0), 0, 0, 0
+
+
+def pack_cache(keys, features, axes) -> tuple:
+    """A coherence cache from its fields: keys (k,) int64 sorted, features (k, 3) int64 and
+    axes (k, 3) float64 (see ``convex_contacts_for_pairs``)."""
+    keys = np.asarray(keys, np.int64)
+    ints = np.concatenate([keys, np.asarray(features, np.int64).reshape(-1)])
+    return ints, np.asarray(axes, np.float64).reshape(-1).copy(), 0, 0, len(keys)
+
+
+def cache_views(cache: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A coherence cache's (keys (k,), features (k, 3), axes (k, 3)), for inspection."""
+    return _cache_fields(*cache)
+
+
+@njit
+def _cache_fields(ints, floats, int_offset, float_offset, count):
+    """(keys, features, axes) of a cache of ``count`` pairs packed in ``ints`` from
+    ``int_offset`` and ``floats`` from ``float_offset``."""
+    return (
+        ints[int_offset : int_offset + count],
+        ints[int_offset + count : int_offset + 4 * count].reshape((count, 3)),
+        floats[float_offset : float_offset + 3 * count].reshape((count, 3)),
+    )
 
 
 @njit
@@ -167,22 +199,11 @@ def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, start_vertex, out):
     """Hull h's vertex farthest against (nx, ny, nz) (A's frame), climbing from its vertex
     ``start_vertex``, into out[0] (A's frame); h is B's hull when ``kind`` is FACE_A
     (mapped by R, t), A's otherwise."""
-    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
-    v0, v1 = vertex_start[h], vertex_start[h + 1]
     if kind == FACE_A:
-        mx = -(R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz)
-        my = -(R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz)
-        mz = -(R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz)
+        x, y, z, _ = mapped_support(H, h, R, t, -nx, -ny, -nz, start_vertex)
     else:
-        mx, my, mz = -nx, -ny, -nz
-    v = v0 + support_vertex(vertices[v0:v1], neighbor_start[v0 : v1 + 1], neighbors,
-                            mx, my, mz, start_vertex)  # fmt: skip
-    x, y, z = vertices[v, 0], vertices[v, 1], vertices[v, 2]
-    if kind == FACE_A:
-        for a in range(3):
-            out[0, a] = R[a, 0] * x + R[a, 1] * y + R[a, 2] * z + t[a]
-    else:
-        out[0, 0], out[0, 1], out[0, 2] = x, y, z
+        x, y, z, _ = mapped_support(H, h, _IDENTITY, _ORIGIN, -nx, -ny, -nz, start_vertex)
+    out[0, 0], out[0, 1], out[0, 2] = x, y, z
 
 
 @njit(allocates=False)
@@ -331,8 +352,8 @@ def _query_scratch(H):
 @njit
 def convex_contacts_for_pairs(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
-    center_of_mass_local, cache_keys, cache_features, cache_axes, speculative, reach, ints,
-    floats,
+    center_of_mass_local, cache_ints, cache_floats, cache_int_offset, cache_float_offset,
+    cache_count, speculative, reach, ints, floats,
 ):  # fmt: skip
     """Contacts of candidate pairs of convex bodies, world frame, in one call
     (``convex_contacts`` calls it and unpacks what it writes).
@@ -349,15 +370,18 @@ def convex_contacts_for_pairs(
         ``HullSet.longest_loop``: most corners of any face.
     position, orientation, center_of_mass_local : (n, 3), (n, 4), (n, 3) float64
         Body state: x_world = R(orientation) (x_mesh - center_of_mass_local) + position.
-    cache_keys : (k,) int64, sorted
-        ``pair_key(i, j)`` of each cached pair.
-    cache_features : (k, 3) int64
-        [kind, i, j] of the axis that separated the pair or gave its contact last time:
-        ``FACE_A`` face i, ``FACE_B`` face i (j: the other hull's vertex deepest under it
-        where ``certify_face_axis`` found it, else 0), ``EDGES`` edge i of A and j of B,
-        ``CACHE_AXIS`` a direction only, 0 nothing.
-    cache_axes : (k, 3) float64
-        That axis, from A towards B, in A's mesh frame.
+    cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
+        The coherence cache of k = ``cache_count`` pairs (``empty_cache``, or the cache of
+        the call before: its output arrays and where the cache starts in them):
+
+        - keys (k,) int64 at ``cache_ints[cache_int_offset:]``, sorted: ``pair_key(i, j)``
+          of each cached pair;
+        - features (k, 3) int64 after them: [kind, i, j] of the axis that separated the
+          pair or gave its contact last time: ``FACE_A`` face i, ``FACE_B`` face i (j: the
+          other hull's vertex deepest under it where ``certify_face_axis`` found it, else 0),
+          ``EDGES`` edge i of A and j of B, ``CACHE_AXIS`` a direction only, 0 nothing;
+        - axes (k, 3) float64 at ``cache_floats[cache_float_offset:]``: that axis, from A
+          towards B, in A's mesh frame.
     speculative : float
         Pairs apart by at most this fraction of the thinner hull's thickness get contacts
         (``SPECULATIVE_FRACTION``), or by at most ``reach`` if that is more; both 0
@@ -394,11 +418,15 @@ def convex_contacts_for_pairs(
         -1: hull faces are not mesh triangles.
     features : (c,) int64
         Feature ids (``feature_id``).
-    cache_keys, cache_features, cache_axes : (p,), (p, 3), (p, 3)
-        The new cache: a row per pair, sorted by key.
+    cache keys, features, axes : (p,), (p, 3), (p, 3)
+        The new cache: a row per pair, sorted by key, after the contacts (int offset 5 c,
+        float offset 7 c).
     """
     H = unpack_hulls(hull_arrays)
     sizes, thicknesses, box_frames, box_features = H[16], H[17], H[18], H[19]
+    cache_keys, cache_features, cache_axes = _cache_fields(
+        cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
+    )
     p = pairs.shape[0]
     scratch = _query_scratch(H)
     corners = 2 * longest_loop + 2
@@ -562,21 +590,16 @@ def convex_contacts(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation, center_of_mass_local,
     cache, speculative, reach,
 ) -> tuple[ContactSet, tuple]:  # fmt: skip
-    """``convex_contacts_for_pairs`` (same arguments, ``cache`` the triple (keys, features,
-    axes)): the contacts as a ``ContactSet`` and the new cache as contiguous views
-    (cache_keys, cache_features, cache_axes)."""
+    """``convex_contacts_for_pairs`` (same arguments, ``cache`` the tuple of its five cache
+    arguments, as ``empty_cache`` makes it): the contacts as a ``ContactSet`` and the new
+    cache, a tuple of the same form that points into the same output arrays."""
     p = len(pairs)
     ints, floats = np.empty(OUTPUT_INTS * p, np.int64), np.empty(OUTPUT_FLOATS * p)
     c = convex_contacts_for_pairs(
         pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
         center_of_mass_local, *cache, speculative, reach, ints, floats,
     )  # fmt: skip
-    cache = (
-        ints[INT_WIDTH * c : INT_WIDTH * c + p],
-        ints[INT_WIDTH * c + p : INT_WIDTH * c + 4 * p].reshape(p, 3),
-        floats[FLOAT_WIDTH * c : FLOAT_WIDTH * c + 3 * p].reshape(p, 3),
-    )
-    return ContactSet(ints, floats, c), cache
+    return ContactSet(ints, floats, c), (ints, floats, INT_WIDTH * c, FLOAT_WIDTH * c, p)
 
 
 @njit(allocates=False)

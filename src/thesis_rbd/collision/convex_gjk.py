@@ -28,7 +28,7 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.collision.convex_sat import EDGES, FACE_A, FACE_B, place_hull, sat_query
 
-__all__ = ["CACHE_AXIS", "gjk_epa_query", "support_vertex"]
+__all__ = ["CACHE_AXIS", "gjk_epa_query", "mapped_support", "support_vertex"]
 
 # Cache kind of a GJK separating direction (a direction, no feature)
 CACHE_AXIS = 4
@@ -65,6 +65,29 @@ def support_vertex(vertices, neighbor_start, neighbors, dx, dy, dz, start):
             if s > best:
                 best, v, moved = s, u, True
     return v
+
+
+@njit(allocates=False)
+def mapped_support(H, h, M, c, dx, dy, dz, start):
+    """Vertex of hull ``h`` farthest along (dx, dy, dz), a direction in a frame the hull is
+    mapped into by x -> M x + c, climbing from its vertex ``start`` (any index outside the
+    hull starts at its first vertex): (x, y, z, vertex), the point in that frame and the
+    vertex's index in its hull."""
+    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    # the support along d in the mapped frame is the support along M^T d in the hull's own
+    ex = M[0, 0] * dx + M[1, 0] * dy + M[2, 0] * dz
+    ey = M[0, 1] * dx + M[1, 1] * dy + M[2, 1] * dz
+    ez = M[0, 2] * dx + M[1, 2] * dy + M[2, 2] * dz
+    v0, v1 = vertex_start[h], vertex_start[h + 1]
+    local = support_vertex(
+        vertices[v0:v1], neighbor_start[v0 : v1 + 1], neighbors, ex, ey, ez,
+        start if 0 <= start < v1 - v0 else 0,
+    )  # fmt: skip
+    v = v0 + local
+    x = M[0, 0] * vertices[v, 0] + M[0, 1] * vertices[v, 1] + M[0, 2] * vertices[v, 2] + c[0]
+    y = M[1, 0] * vertices[v, 0] + M[1, 1] * vertices[v, 1] + M[1, 2] * vertices[v, 2] + c[1]
+    z = M[2, 0] * vertices[v, 0] + M[2, 1] * vertices[v, 1] + M[2, 2] * vertices[v, 2] + c[2]
+    return x, y, z, local
 
 
 @njit

@@ -58,9 +58,9 @@ class CollisionPipeline:
         The convex hulls of the convex meshes (narrow phase "auto").
     hull_of_body : (n,) int64
         Hull index of each body, -1 for a body that collides as a mesh.
-    convex_cache : tuple of arrays
-        Coherence cache of the convex pairs (``convex_contacts.empty_cache``), from the last
-        ``narrow_phase`` stage.
+    convex_cache : tuple
+        Coherence cache of the convex pairs (``convex_contacts.empty_cache``; its arrays by
+        ``convex_contacts.cache_views``), from the last ``narrow_phase`` stage.
     box_offset, box_half : (n, 3) float64
         Mesh-frame box of each body: centre offset from the centre of mass, half-extents.
     fat : (2, n, 3) float64
@@ -124,23 +124,30 @@ class CollisionPipeline:
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
         self.box_half = np.vstack([self.box_half, 0.5 * (upper - lower)])
 
-    def plan(self, static: np.ndarray, collidable: np.ndarray, reach: float = 0.0) -> None:
+    def plan(self, bodies, reach: float = 0.0) -> None:
         """Take the bodies as they are now; the next ``bounds`` fits every box afresh.
 
         Parameters
         ----------
-        static : (n,) bool
-            Immovable bodies: a pair of two of them is never a candidate.
-        collidable : (n,) bool
-            Bodies inside collision detection: no pair of the others is a candidate.
+        bodies : BodyArrays
+            Their static bodies never pair with each other, their bodies that are not
+            collidable with nothing. The stages read the state from the arrays as they are
+            now: the world plans again whenever they are replaced (a body added).
         reach : float
             Gap (>= 0) that any convex pair gets speculative contacts across, whatever the
             bodies' sizes (see ``convex_contacts``): the world's fall in one step.
         """
+        static, collidable = bodies.static, bodies.collidable
         n = len(static)
         self._reach = float(reach)
         self._static = static.copy()
         self._may_pair = collidable.copy()
+        # the kernels' body arguments, looked up once per plan
+        full = bodies.full
+        self._position, self._orientation = full("position"), full("orientation")
+        self._center_of_mass_local = full("center_of_mass_local")
+        self._size, self._thickness = full("size"), full("thickness")
+        self._linear_momentum, self._inverse_mass = full("linear_momentum"), full("inverse_mass")
         if self.tight.shape[1] != n:
             self.tight, self.fat = np.zeros((2, n, 3)), np.zeros((2, n, 3))
             self._fast = np.zeros(n, bool)
@@ -171,13 +178,13 @@ class CollisionPipeline:
         b = bodies
         self._start_position = start_position
         refit, fast_count, slowest = update_fat_bounds(
-            b.count, self._refit_all, frozen, b.full("size"), b.full("thickness"),
-            b.full("position"), start_position, b.full("linear_momentum"), b.full("inverse_mass"),
+            b.count, self._refit_all, frozen, self._size, self._thickness, self._position,
+            start_position, self._linear_momentum, self._inverse_mass,
             PREDICTION_STEPS * dt, self.fat, self._fast,
         )  # fmt: skip
         if self._refit_all:
             # static and sleeping bodies do not move: their fat boxes are their tight boxes
-            self._tight_bounds(b, np.flatnonzero(frozen[: b.count]), self.fat)
+            self._tight_bounds(np.flatnonzero(frozen[: b.count]), self.fat)
             self._refit_all = False
         self._fat_changed |= refit
         return self._fast, fast_count, slowest
@@ -236,7 +243,7 @@ class CollisionPipeline:
                 position[mover] = (1 - s) * start_position[mover] + s * end_position
                 q = (1 - s) * q0 + s * end_orientation
                 orientation[mover] = q / np.linalg.norm(q)
-                if self.intersects(bodies, np.array([[i, j]])):
+                if self.intersects(np.array([[i, j]])):
                     caught.append(mover)
                     break
             else:
@@ -244,11 +251,11 @@ class CollisionPipeline:
         if not caught:
             return contacts, 0
         moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
-        fresh = self.contacts_of(bodies, np.ascontiguousarray(pairs[moved]))
+        fresh = self.contacts_of(np.ascontiguousarray(pairs[moved]))
         keep = ~(np.isin(contacts["body_a"], caught) | np.isin(contacts["body_b"], caught))
         return ContactSet.concatenate([contacts.select(keep), fresh]), len(caught)
 
-    def broad_phase(self, bodies, resting: np.ndarray) -> np.ndarray:
+    def broad_phase(self, resting: np.ndarray) -> np.ndarray:
         """Update the pair cache if the fat boxes changed; return the pairs worth testing.
 
         Candidates (p, 2) int64 are the fat pairs whose tight boxes overlap and that have a
@@ -271,11 +278,10 @@ class CollisionPipeline:
             self._candidates = np.empty_like(pairs)
             self._fat_changed = False
         if len(self.fat_pairs):
-            b = bodies
             count = candidate_pairs(
-                self.fat_pairs, self.pair_members, self.box_offset, self.box_half,
-                b.full("size"), b.full("position"), b.full("orientation"), self._start_position,
-                self._fast, b.full("thickness"), SPECULATIVE_FRACTION, self._reach, self.tight,
+                self.fat_pairs, self.pair_members, self.box_offset, self.box_half, self._size,
+                self._position, self._orientation, self._start_position, self._fast,
+                self._thickness, SPECULATIVE_FRACTION, self._reach, self.tight,
                 resting, self._candidates,
             )  # fmt: skip
             candidates = self._candidates[:count]
@@ -284,20 +290,19 @@ class CollisionPipeline:
         self.stats["candidate_pairs"] = len(candidates)
         return candidates
 
-    def _tight_bounds(self, bodies, members: np.ndarray, out: np.ndarray) -> None:
+    def _tight_bounds(self, members: np.ndarray, out: np.ndarray) -> None:
         """Tight boxes of the bodies ``members`` (m,) into ``out`` (2, n, 3)."""
-        b = bodies
         tight_bounds(
-            members, self.box_offset, self.box_half, b.full("size"), b.full("position"),
-            b.full("orientation"), self._start_position, self._fast, b.full("thickness"),
+            members, self.box_offset, self.box_half, self._size, self._position,
+            self._orientation, self._start_position, self._fast, self._thickness,
             SPECULATIVE_FRACTION, self._reach, out,
         )  # fmt: skip
 
-    def narrow_phase(self, bodies, pairs: np.ndarray) -> ContactSet:
+    def narrow_phase(self, pairs: np.ndarray) -> ContactSet:
         """Contacts of the candidate ``pairs`` (p, 2), world frame (see ``ContactSet``;
         convex pairs a small gap apart have speculative contacts, depth < 0); the convex
         pairs' coherence cache is kept for the next step."""
-        return self._contacts(bodies, pairs, keep_cache=True)
+        return self._contacts(pairs, keep_cache=True)
 
     def _convex_pairs(self, pairs: np.ndarray) -> np.ndarray:
         """(p,) bool: the pairs of two convex bodies."""
@@ -314,28 +319,24 @@ class CollisionPipeline:
             self.geometry_of_body, trees,
         )  # fmt: skip
 
-    def intersects(self, bodies, pairs: np.ndarray) -> bool:
+    def intersects(self, pairs: np.ndarray) -> bool:
         """Whether any of the body ``pairs`` (p, 2) intersects in the current state
         (``touching.pairs_touch``: convex pairs without the speculative margin, so that
         this answer and ``contacts_of`` agree)."""
         return pairs_touch(
-            np.ascontiguousarray(pairs), bodies.full("position"), bodies.full("orientation"),
-            bodies.full("center_of_mass_local"), *self.touch_inputs(),
+            np.ascontiguousarray(pairs), self._position, self._orientation,
+            self._center_of_mass_local, *self.touch_inputs(),
         )  # fmt: skip
 
-    def contacts_of(self, bodies, pairs: np.ndarray) -> ContactSet:
+    def contacts_of(self, pairs: np.ndarray) -> ContactSet:
         """Contacts of the body ``pairs`` (p, 2) in the current state (see ``ContactSet``)."""
-        return self._contacts(bodies, pairs, keep_cache=False)
+        return self._contacts(pairs, keep_cache=False)
 
-    def _contacts(self, bodies, pairs: np.ndarray, keep_cache: bool) -> ContactSet:
+    def _contacts(self, pairs: np.ndarray, keep_cache: bool) -> ContactSet:
         """Contacts of ``pairs``: convex pairs by the convex kernel, the others by the
         OBBTree; ``keep_cache`` stores the convex pairs' coherence cache for the next step.
         A scene whose bodies are all convex (or none) makes one kernel call and nothing else."""
-        state = (
-            bodies.full("position"),
-            bodies.full("orientation"),
-            bodies.full("center_of_mass_local"),
-        )
+        state = (self._position, self._orientation, self._center_of_mass_local)
         if self._every_body_convex:
             self.stats["convex_pairs"] = len(pairs)
             return self._convex_contacts(pairs, state, keep_cache)

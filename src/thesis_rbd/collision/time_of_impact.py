@@ -126,7 +126,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
     Parameters
     ----------
     detector : CollisionPipeline
-        Gives ``touch_inputs()`` and answers ``contacts_of(bodies, pairs)``.
+        Gives ``touch_inputs()`` and answers ``contacts_of(pairs)``.
     bodies : BodyArrays
         Positions and orientations of stepped-back bodies are moved to their time of impact.
     contacts : ContactSet
@@ -167,7 +167,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
             renewed |= mine
     if not renewed.any():
         return rewind, contacts
-    fresh = detector.contacts_of(bodies, unique_pairs(body_a, body_b, renewed))
+    fresh = detector.contacts_of(unique_pairs(body_a, body_b, renewed))
     kept = ~renewed
     return rewind, ContactSet.concatenate([contacts.select(kept), fresh])
 
