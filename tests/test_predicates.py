@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from reference import examples
 from scipy.spatial.transform import Rotation
 
-from thesis_rbd.collision.predicates import orient2d, orient3d, orient3d_inline, plane_sides
+from thesis_rbd.collision.predicates import orient2d, orient3d, plane_sides
 
 
 def _sign(x) -> int:
@@ -80,7 +80,6 @@ def test_orient3d_on_coplanar_lattices_and_ulp_nudges(data):
     a, b, c, d = (_tuple(p) for p in pts)
     want = orient3d_exact(a, b, c, d)
     assert orient3d(a, b, c, d) == want
-    assert orient3d_inline(a, b, c, d) == want
 
 
 @settings(max_examples=examples(300))

@@ -43,7 +43,7 @@ def njit(func=None, allocates=True, **options):
     """``numba.njit`` with the package policy (``cache=True``, ``fastmath=False``, one
     specialization per argument types).
 
-    Usable bare (``@njit``) or with extra options (``@njit(inline="always")``);
+    Usable bare (``@njit``) or with options (``@njit(allocates=False)``);
     ``allocates=False`` for a kernel that creates no array (see the module docstring).
     """
     if not allocates:

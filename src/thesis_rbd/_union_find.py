@@ -10,7 +10,7 @@ from thesis_rbd._jit import njit
 __all__ = ["find_root", "join"]
 
 
-@njit(inline="always")
+@njit
 def find_root(parent, i):
     """Root of i's set, halving the path on the way."""
     while parent[i] != i:
@@ -19,7 +19,7 @@ def find_root(parent, i):
     return i
 
 
-@njit(inline="always")
+@njit
 def join(parent, i, j):
     """Merge the sets of i and j; the smaller root index becomes the root."""
     ri, rj = find_root(parent, i), find_root(parent, j)

@@ -224,7 +224,7 @@ def rebin_axis(old_box, cells_b, cells_c, grid, val, ep, col, count, rng, moved,
     return val, ep, col
 
 
-@njit(inline="always")
+@njit
 def _had(pending, t, kb, kc):
     """Whether the old range of ``pending[t]`` holds the column of cells ``(kb, kc)``."""
     return pending[t, 1] <= kb <= pending[t, 2] and pending[t, 3] <= kc <= pending[t, 4]

@@ -100,7 +100,7 @@ def choose_grid(
         counts = np.maximum(counts // 2, 1)
 
 
-@njit(inline="always")
+@njit
 def cell_of(v, origin, scale, count):
     """Cell of coordinate ``v`` on a dimension of the grid, clamped into ``[0, count - 1]``."""
     t = (v - origin) * scale

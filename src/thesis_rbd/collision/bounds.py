@@ -45,7 +45,7 @@ MARGIN_FRACTION = 0.1
 PREDICTION_STEPS = 128
 
 
-@njit(inline="always")
+@njit
 def _posed_box(R, offset, half, x, radius, lower, upper):
     """Tight box of one posed body (Arvo box of the local box within x ± r) into the rows
     ``lower``, ``upper`` (3,)."""
@@ -126,7 +126,7 @@ def update_fat_bounds(
     return refit, fast_count, slowest
 
 
-@njit(inline="always")
+@njit
 def _fatten(i, position, start_position, linear_momentum, inverse_mass, radius, fast, horizon, fat):
     """Fat box of moving body i from its sphere's box and its velocity."""
     x, x0, P, im, r = position[i], start_position[i], linear_momentum[i], inverse_mass[i], radius[i]

@@ -313,7 +313,7 @@ def _manifold_corners(points, normal):
     return np.array(chosen)
 
 
-@njit(inline="always")
+@njit
 def _project_along(p, u, corners, t, margin):
     """Signed distance s with p + s u on triangle t of ``corners`` (rows 3t..3t+2), or NaN
     if it misses the triangle by more than about ``margin`` (a length)."""

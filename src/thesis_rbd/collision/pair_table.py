@@ -46,7 +46,7 @@ TOUCHED = 4
 _LOW32 = (1 << 32) - 1
 
 
-@njit(inline="always")
+@njit
 def pair_key(i, j):
     """Key of the unordered pair {i, j} (ids below 2**31): ``min << 32 | max``."""
     if i < j:
@@ -54,7 +54,7 @@ def pair_key(i, j):
     return (np.int64(j) << 32) | np.int64(i)
 
 
-@njit(inline="always")
+@njit
 def _home(key, mask):
     # Fibonacci hashing: keys of neighbouring pairs differ in low bits only, so mix them up
     # into the bits that the mask keeps.

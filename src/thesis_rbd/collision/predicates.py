@@ -29,7 +29,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 
-__all__ = ["orient2d", "orient3d", "orient3d_inline", "plane_sides"]
+__all__ = ["orient2d", "orient3d", "plane_sides"]
 
 _EPS = 2.0**-53  # half an ulp of 1: the relative rounding error of one operation
 _SPLITTER = 2.0**27 + 1.0  # Dekker's split of a 53-bit significand into two 26-bit halves
@@ -216,12 +216,9 @@ def _filtered(a, d, m0a, m0b, m1a, m1b, m2a, m2b):
     return sign
 
 
-@njit(inline="always")
-def orient3d_inline(a, b, c, d):
+@njit
+def orient3d(a, b, c, d):
     """Exact sign of the orientation determinant ``(a - d) . ((b - d) x (c - d))``.
-
-    Inlined into its caller: the filter is a few dozen operations, about what a call
-    costs. :func:`orient3d` is the same as a called kernel, for code off the hot path.
 
     Parameters
     ----------
@@ -247,19 +244,13 @@ def orient3d_inline(a, b, c, d):
 
 
 @njit
-def orient3d(a, b, c, d):
-    """:func:`orient3d_inline` as a called kernel (compiled once, for code off the hot path)."""
-    return orient3d_inline(a, b, c, d)
-
-
-@njit(inline="always")
 def plane_sides(q0, q1, q2, p0, p1, p2):
     """Exact side of each of p0, p1, p2 against the plane through q0, q1, q2.
 
     Equal to ``(orient3d(p0, q0, q1, q2), orient3d(p1, ...), orient3d(p2, ...))``: +1 on the
     side the normal ``(q0 - q2) x (q1 - q2)`` points to, -1 on the other, 0 on the plane;
-    all three are 0 when q0, q1, q2 are collinear. The normal's products are shared, and
-    the filter is inlined into the caller (the hot path of the triangle test).
+    all three are 0 when q0, q1, q2 are collinear. The normal's products are shared (the
+    hot path of the triangle test).
     """
     bdx = q0[0] - q2[0]
     bdy = q0[1] - q2[1]

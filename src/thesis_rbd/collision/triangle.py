@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from thesis_rbd._jit import njit
 from thesis_rbd.collision._vec3 import cross, dot, sub, vec
-from thesis_rbd.collision.predicates import orient2d, orient3d, orient3d_inline, plane_sides
+from thesis_rbd.collision.predicates import orient2d, orient3d, plane_sides
 
 __all__ = ["tri_box_overlap", "tri_tri_overlap", "triangle_box_overlap", "triangles_overlap"]
 
@@ -81,7 +81,7 @@ def tri_tri_overlap(p0, p1, p2, q0, q1, q2):
     # Now a0 is alone on the positive side of B's plane and b0 alone on the positive side of
     # A's: the triangles' segments on the planes' common line overlap iff both orientations
     # are <= 0.
-    return orient3d_inline(b1, b0, a0, a1) <= 0 and orient3d_inline(b2, b0, a2, a0) <= 0
+    return orient3d(b1, b0, a0, a1) <= 0 and orient3d(b2, b0, a2, a0) <= 0
 
 
 @njit

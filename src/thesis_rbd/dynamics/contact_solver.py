@@ -84,12 +84,12 @@ def contact_basis(normals):
     return basis
 
 
-@njit(inline="always")
+@njit
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(inline="always")
+@njit
 def _matvec(m, v):
     return (
         m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
@@ -98,12 +98,12 @@ def _matvec(m, v):
     )
 
 
-@njit(inline="always")
+@njit
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(inline="always")
+@njit
 def relative_velocity(k, d, contacts, bodies):
     """u . e_d at contact k for direction d (0 normal, 1 and 2 tangents)."""
     body_a, body_b, arm_a, arm_b, basis = contacts
@@ -119,7 +119,7 @@ def relative_velocity(k, d, contacts, bodies):
     )
 
 
-@njit(inline="always")
+@njit
 def _apply_impulse(k, d, j, contacts, bodies):
     """Impulse j along direction d of contact k: +j e_d on a at its arm, -j e_d on b."""
     body_a, body_b, arm_a, arm_b, basis = contacts

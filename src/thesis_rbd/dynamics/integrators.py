@@ -44,7 +44,7 @@ _ZERO3 = (0.0, 0.0, 0.0)
 _ZERO4 = (0.0, 0.0, 0.0, 0.0)
 
 
-@njit(inline="always")
+@njit
 def _angular_velocity(q, L, inv_inertia):
     """w = R I_body^-1 R^T L for unit q (4-tuple), L (3-tuple) and I_body^-1 (3, 3)."""
     Lb = rotate(conjugate(q), L)
@@ -56,7 +56,7 @@ def _angular_velocity(q, L, inv_inertia):
     return rotate(q, wb)
 
 
-@njit(inline="always")
+@njit
 def _derivative(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm, pf_force):
     """(dx, dq, dP, dL) of body i at orientation q and momenta P, L (tuples)."""
     qn = normalize(q)
@@ -107,22 +107,22 @@ def body_forces(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm
     return F, T
 
 
-@njit(inline="always")
+@njit
 def _add3(a, h, b):
     return (a[0] + h * b[0], a[1] + h * b[1], a[2] + h * b[2])
 
 
-@njit(inline="always")
+@njit
 def _add4(a, h, b):
     return (a[0] + h * b[0], a[1] + h * b[1], a[2] + h * b[2], a[3] + h * b[3])
 
 
-@njit(inline="always")
+@njit
 def _scale3(b, a):
     return (b * a[0], b * a[1], b * a[2])
 
 
-@njit(inline="always")
+@njit
 def _scale4(b, a):
     return (b * a[0], b * a[1], b * a[2], b * a[3])
 

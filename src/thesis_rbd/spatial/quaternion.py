@@ -3,8 +3,8 @@
 Two layers:
 
 * scalar kernels (``mul``, ``rotate``, ``derivative``, ...) that take anything indexable of
-  length 4 or 3 (an array row or a tuple) and return tuples, inlined into other kernels so a
-  hot loop allocates nothing;
+  length 4 or 3 (an array row or a tuple) and return tuples, so that a hot loop allocates
+  nothing;
 * batch functions (``quat_multiply``, ``quat_rotate``, ...) over (n, 4) arrays for Python
   callers, which validate shapes and loop over rows in a kernel.
 
@@ -39,7 +39,7 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------------- scalar kernels
-@njit(inline="always")
+@njit
 def mul(a, b):
     """Hamilton product a * b of two (x, y, z, w) quaternions, as a 4-tuple."""
     ax, ay, az, aw = a[0], a[1], a[2], a[3]
@@ -52,20 +52,20 @@ def mul(a, b):
     )
 
 
-@njit(inline="always")
+@njit
 def conjugate(q):
     """Conjugate (-x, -y, -z, w): the inverse of a unit quaternion."""
     return (-q[0], -q[1], -q[2], q[3])
 
 
-@njit(inline="always")
+@njit
 def normalize(q):
     """q / |q| as a 4-tuple (q must not be zero)."""
     inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
 
 
-@njit(inline="always")
+@njit
 def rotate(q, v):
     """Rotate the 3-vector v by the unit quaternion q, as a 3-tuple.
 
@@ -83,7 +83,7 @@ def rotate(q, v):
     )
 
 
-@njit(inline="always")
+@njit
 def derivative(q, omega):
     """dq/dt = 1/2 [omega, 0] * q for world-frame angular velocity omega, as a 4-tuple."""
     wx, wy, wz = omega[0], omega[1], omega[2]
@@ -96,7 +96,7 @@ def derivative(q, omega):
     )
 
 
-@njit(inline="always")
+@njit
 def to_matrix_into(q, out):
     """Write the rotation matrix of unit quaternion q into ``out`` (3, 3)."""
     x, y, z, w = q[0], q[1], q[2], q[3]
@@ -114,7 +114,7 @@ def to_matrix_into(q, out):
     out[2, 2] = 1.0 - 2.0 * (xx + yy)
 
 
-@njit(inline="always")
+@njit
 def from_matrix(m):
     """Unit quaternion (w >= 0) of a rotation matrix, by Shepperd's method, as a 4-tuple.
 
