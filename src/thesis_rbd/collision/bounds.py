@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.spatial.quaternion import to_matrix_into
+from thesis_rbd.spatial.quaternion import to_matrix
 
 __all__ = [
     "MARGIN_FRACTION",
@@ -45,18 +45,19 @@ MARGIN_FRACTION = 0.1
 PREDICTION_STEPS = 128
 
 
-@njit
+@njit(allocates=False)
 def _posed_box(R, offset, half, x, radius, lower, upper):
     """Tight box of one posed body (Arvo box of the local box within x ± r) into the rows
-    ``lower``, ``upper`` (3,)."""
+    ``lower``, ``upper`` (3,); R is the body's rotation, rows as 3-tuples."""
     for a in range(3):
-        center = x[a] + R[a, 0] * offset[0] + R[a, 1] * offset[1] + R[a, 2] * offset[2]
-        extent = abs(R[a, 0]) * half[0] + abs(R[a, 1]) * half[1] + abs(R[a, 2]) * half[2]
+        r = R[a]
+        center = x[a] + r[0] * offset[0] + r[1] * offset[1] + r[2] * offset[2]
+        extent = abs(r[0]) * half[0] + abs(r[1]) * half[1] + abs(r[2]) * half[2]
         lower[a] = max(center - extent, x[a] - radius)
         upper[a] = min(center + extent, x[a] + radius)
 
 
-@njit
+@njit(allocates=False)
 def update_fat_bounds(
     count, everything, frozen, radius, thickness, position, start_position, linear_momentum,
     inverse_mass, horizon, fat, fast,
@@ -126,7 +127,7 @@ def update_fat_bounds(
     return refit, fast_count, slowest
 
 
-@njit
+@njit(allocates=False)
 def _fatten(i, position, start_position, linear_momentum, inverse_mass, radius, fast, horizon, fat):
     """Fat box of moving body i from its sphere's box and its velocity."""
     x, x0, P, im, r = position[i], start_position[i], linear_momentum[i], inverse_mass[i], radius[i]
@@ -140,7 +141,7 @@ def _fatten(i, position, start_position, linear_momentum, inverse_mass, radius, 
         fat[1, i, a] = upper + margin + max(ahead, 0.0)
 
 
-@njit
+@njit(allocates=False)
 def tight_bounds(
     members, box_offset, box_half, radius, position, orientation, start_position, fast,
     thickness, speculative, reach, tight,
@@ -154,10 +155,9 @@ def tight_bounds(
     times its ``thickness`` (n,) and ``reach``, so that pairs a margin apart are candidates
     (see ``convex_contacts``). The other arguments are as in ``update_fat_bounds``.
     """
-    R = np.empty((3, 3))
     for k in range(members.shape[0]):
         i = members[k]
-        to_matrix_into(orientation[i], R)
+        R = to_matrix(orientation[i])
         _posed_box(R, box_offset[i], box_half[i], position[i], radius[i], tight[0, i], tight[1, i])
         if fast[i]:
             for a in range(3):
@@ -169,7 +169,7 @@ def tight_bounds(
             tight[1, i, a] += pad
 
 
-@njit
+@njit(allocates=False)
 def overlapping_pairs(pairs, tight, resting, out):
     """The pairs whose tight boxes overlap and that have a moving body.
 
@@ -207,7 +207,7 @@ def overlapping_pairs(pairs, tight, resting, out):
     return kept
 
 
-@njit
+@njit(allocates=False)
 def candidate_pairs(
     pairs, members, box_offset, box_half, radius, position, orientation, start_position, fast,
     thickness, speculative, reach, tight, resting, out,

@@ -29,7 +29,7 @@ __all__ = ["BodyArrays"]
 STATE_FIELDS = ("position", "orientation", "linear_momentum", "angular_momentum")
 
 
-@njit
+@njit(allocates=False)
 def _copy_state(count, x, q, P, L, x_to, q_to, P_to, L_to):
     """Copy the first ``count`` rows of the state arrays into the ``*_to`` arrays."""
     for i in range(count):

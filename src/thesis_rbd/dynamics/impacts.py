@@ -49,7 +49,7 @@ __all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
 IMPACT_TOLERANCE = 1e-6
 
 
-@njit
+@njit(allocates=False)
 def any_free_body(contact_ints, count, frozen, solved):
     """Whether a contact has a body that is neither frozen nor moved by the contact stage
     (``contact_ints`` and ``count`` of a ``ContactSet``: its bodies a and b come first)."""

@@ -127,7 +127,7 @@ def _scale4(b, a):
     return (b * a[0], b * a[1], b * a[2], b * a[3])
 
 
-@njit
+@njit(allocates=False)
 def integrate_bodies(
     method,
     dt,

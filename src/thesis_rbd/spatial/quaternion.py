@@ -97,21 +97,26 @@ def derivative(q, omega):
 
 
 @njit
-def to_matrix_into(q, out):
-    """Write the rotation matrix of unit quaternion q into ``out`` (3, 3)."""
+def to_matrix(q):
+    """Rows of the rotation matrix of unit quaternion q, as three 3-tuples."""
     x, y, z, w = q[0], q[1], q[2], q[3]
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
-    out[0, 0] = 1.0 - 2.0 * (yy + zz)
-    out[0, 1] = 2.0 * (xy - wz)
-    out[0, 2] = 2.0 * (xz + wy)
-    out[1, 0] = 2.0 * (xy + wz)
-    out[1, 1] = 1.0 - 2.0 * (xx + zz)
-    out[1, 2] = 2.0 * (yz - wx)
-    out[2, 0] = 2.0 * (xz - wy)
-    out[2, 1] = 2.0 * (yz + wx)
-    out[2, 2] = 1.0 - 2.0 * (xx + yy)
+    return (
+        (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)),
+        (2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)),
+        (2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)),
+    )
+
+
+@njit
+def to_matrix_into(q, out):
+    """Write the rotation matrix of unit quaternion q into ``out`` (3, 3)."""
+    rows = to_matrix(q)
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = rows[a][b]
 
 
 @njit
