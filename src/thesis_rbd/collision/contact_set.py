@@ -62,20 +62,14 @@ class ContactSet(Mapping):
     def from_fields(cls, fields: Mapping) -> ContactSet:
         """Pack a mapping with every key of ``CONTACT_KEYS`` (arrays of c rows)."""
         c = len(fields["depths"])
-        ints = np.concatenate(
-            [
-                np.asarray(fields[key], np.int64).reshape(-1)
-                for key in ("body_a", "body_b", "features", "faces")
-            ]
-        )
-        floats = np.concatenate(
-            [
-                np.asarray(fields[key], np.float64).reshape(-1)
-                for key in ("points", "normals", "depths")
-            ]
-        )
-        if len(ints) != INT_WIDTH * c or len(floats) != FLOAT_WIDTH * c:
-            raise ValueError(f"contact fields of unequal lengths for {c} contacts")
+        ints, floats = np.empty(INT_WIDTH * c, np.int64), np.empty(FLOAT_WIDTH * c)
+        for name, view in zip(CONTACT_KEYS, _contact_views_in_numpy(ints, floats, c), strict=True):
+            value = np.asarray(fields[name])
+            if value.shape != view.shape:
+                raise ValueError(
+                    f"contact field {name!r} has shape {value.shape}, not {view.shape}"
+                )
+            view[...] = value
         return cls(ints, floats, c)
 
     @classmethod
@@ -89,30 +83,15 @@ class ContactSet(Mapping):
         return ContactSet.from_fields({key: self[key][rows] for key in CONTACT_KEYS})
 
     def __getitem__(self, key: str) -> np.ndarray:
-        view = self._views.get(key)
-        if view is None:
-            view = self._view(key)
-            view.flags.writeable = False
-            self._views[key] = view
-        return view
-
-    def _view(self, key: str) -> np.ndarray:
-        c, ints, floats = self.count, self.ints, self.floats
-        if key == "body_a":
-            return ints[:c]
-        if key == "body_b":
-            return ints[c : 2 * c]
-        if key == "features":
-            return ints[2 * c : 3 * c]
-        if key == "faces":
-            return ints[3 * c : 5 * c].reshape(c, 2)
-        if key == "points":
-            return floats[: 3 * c].reshape(c, 3)
-        if key == "normals":
-            return floats[3 * c : 6 * c].reshape(c, 3)
-        if key == "depths":
-            return floats[6 * c : 7 * c]
-        raise KeyError(key)
+        if key not in CONTACT_KEYS:
+            raise KeyError(key)
+        if not self._views:
+            # the kernels' own slicing, run by NumPy: one layout, written once
+            fields = _contact_views_in_numpy(self.ints, self.floats, self.count)
+            for name, view in zip(CONTACT_KEYS, fields, strict=True):
+                view.flags.writeable = False
+                self._views[name] = view
+        return self._views[key]
 
     def __iter__(self) -> Iterator[str]:
         return iter(CONTACT_KEYS)
@@ -137,3 +116,7 @@ def contact_views(ints, floats, c):
         ints[3 * c : 5 * c].reshape((c, 2)),
         ints[2 * c : 3 * c],
     )
+
+
+# ``contact_views``'s Python function (the function itself where numba's JIT is disabled)
+_contact_views_in_numpy = getattr(contact_views, "py_func", contact_views)

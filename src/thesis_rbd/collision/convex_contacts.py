@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet
+from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet, contact_views
 from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
 from thesis_rbd.collision.convex_coherence import certify_face_axis
 from thesis_rbd.collision.convex_gjk import (
@@ -567,22 +567,24 @@ def convex_contacts_for_pairs(
         if new_keys[q] < new_keys[q - 1]:  # (the broad phase's pairs come sorted)
             order = np.argsort(new_keys)
             break
+    put_a, put_b, put_points, put_normals, put_depths, put_faces, put_features = contact_views(
+        ints, floats, c
+    )
     for r in range(c):
-        ints[r] = body_a[r]
-        ints[c + r] = body_b[r]
-        ints[2 * c + r] = out_features[r]
-        ints[3 * c + 2 * r] = -1
-        ints[3 * c + 2 * r + 1] = -1
+        put_a[r], put_b[r] = body_a[r], body_b[r]
+        put_features[r] = out_features[r]
+        put_faces[r, 0] = put_faces[r, 1] = -1
+        put_depths[r] = out_depths[r]
         for a in range(3):
-            floats[3 * r + a] = out_points[r, a]
-            floats[3 * c + 3 * r + a] = out_normals[r, a]
-        floats[6 * c + r] = out_depths[r]
+            put_points[r, a] = out_points[r, a]
+            put_normals[r, a] = out_normals[r, a]
+    put_keys, put_cached, put_axes = _cache_fields(ints, floats, INT_WIDTH * c, FLOAT_WIDTH * c, p)
     for m in range(p):
         q = order[m]
-        ints[5 * c + m] = new_keys[q]
+        put_keys[m] = new_keys[q]
         for a in range(3):
-            ints[5 * c + p + 3 * m + a] = new_features[q, a]
-            floats[7 * c + 3 * m + a] = new_axes[q, a]
+            put_cached[m, a] = new_features[q, a]
+            put_axes[m, a] = new_axes[q, a]
     return c
 
 
