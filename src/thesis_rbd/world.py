@@ -23,6 +23,12 @@ impact stages when no body hit anything, everything but the forces when all bodi
 are the broad phase while no body left its fat box (``collision/bounds.py``) and the sleep
 stage while it would change nothing.
 
+While every body is convex and awake and gravity is the only force, each stage is one known
+kernel, and ``steady_steps.run_steady_steps`` runs the stages of many steps in one call: it
+stops at the first stage that needs Python (a sweep-and-prune update, the tunnelling check, a
+time of impact, the sleep stage), and the step goes on from there stage by stage. Its steps are
+the staged steps to the bit, and ``World.profile`` gets each stage's share of its time.
+
 A step whose state turns non-finite (a huge force, a diverging solve) raises
 ``NonFiniteStateError`` naming the body, the stage and the step, and leaves the world as it
 was before that step; the kernels report the first bad body as they write, so a good step pays
@@ -55,24 +61,11 @@ from thesis_rbd.dynamics.pgs import friction_polygon
 from thesis_rbd.dynamics.resting_contact import STATS, solve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.dynamics.warm_start import WarmStart
+from thesis_rbd.stage_names import STAGE_NAMES
+from thesis_rbd.steady_steps import FINISHED, run_steady_steps
 from thesis_rbd.world_readout import WorldReadout
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
-
-# Every stage a world can run, in pipeline order; ``World.profile`` has an entry for each so
-# that a skipped stage shows zero calls.
-STAGE_NAMES = (
-    "forces",
-    "contacts",
-    "integrate",
-    "bounds",
-    "broad_phase",
-    "narrow_phase",
-    "tunnelling",
-    "time_of_impact",
-    "impacts",
-    "sleep",
-)
 
 
 # no contacts, and what a step without contact impulses acted at: (contacts, impulses (c, 3))
@@ -336,6 +329,18 @@ class World(WorldReadout):
             # bodies come to rest through contact: without collisions nothing would sleep
             pipeline.append(("sleep", self._stage_sleep, self._sleep_due))
         self._pipeline = [(*entry, self.profile[entry[0]]) for entry in pipeline]
+        # where in the pipeline a step that stopped at stage k resumes
+        ranks = [STAGE_NAMES.index(entry[0]) for entry in pipeline]
+        self._resume_at = [
+            next((i for i, rank in enumerate(ranks) if rank >= k), len(ranks))
+            for k in range(len(STAGE_NAMES))
+        ]
+        # every stage a known kernel while the bodies are convex and awake: run_steady_steps
+        self._steady = (
+            responds
+            and self.contact_settings.penetration == "toi"
+            and len(self.applied_forces) == 0
+        )
         self._collision_planned = collides
         self._contacts_stale = responds
         # speculative contacts across the gap gravity closes in a step, twice over (a body
@@ -382,28 +387,106 @@ class World(WorldReadout):
         """
         if int(n) != n or n < 0:
             raise ValueError(f"n must be a non-negative integer, got {n!r}")
-        for _ in range(int(n)):
+        remaining = int(n)
+        while remaining > 0:
             if self._contacts_stale:
                 self._detect_contacts()
-            self._save()
-            for name, stage, guard, entry in self._pipeline:
-                if not guard():
+            if self._steady and self._steady_now():
+                done, first = self._run_steady_steps(remaining)
+                remaining -= done
+                if first == FINISHED:
                     continue
-                start = perf_counter()
-                try:
-                    stage()
-                except _StepFailed as failure:
-                    self._restore()
-                    body = failure.body
-                    raise NonFiniteStateError(
-                        body, self.bodies.names[body], name, self.steps_taken
-                    ) from None
-                entry["seconds"] += perf_counter() - start
-                entry["calls"] += 1
+            else:
+                self._save()
+                first = 0
+            self._run_stages(first)
+            remaining -= 1
+
+    def _run_stages(self, first: int) -> None:
+        """Run the stages of this step from the one ``STAGE_NAMES[first]`` on, then end it."""
+        for name, stage, guard, entry in self._pipeline[self._resume_at[first] :]:
+            if not guard():
+                continue
+            start = perf_counter()
+            try:
+                stage()
+            except _StepFailed as failure:
+                self._restore()
+                body = failure.body
+                raise NonFiniteStateError(
+                    body, self.bodies.names[body], name, self.steps_taken
+                ) from None
+            entry["seconds"] += perf_counter() - start
+            entry["calls"] += 1
+        self.time += self.dt
+        self.steps_taken += 1
+        if self._stale_plan:
+            self._plan_stages()
+
+    def _steady_now(self) -> bool:
+        """Whether the next steps may run in ``run_steady_steps``: every body awake, the
+        contacts found and the detection ready for it."""
+        return (
+            self._awake
+            and not self._any_asleep
+            and not self._contacts_stale
+            and self._collision.steady_ready
+        )
+
+    def _run_steady_steps(self, steps: int) -> tuple[int, int]:
+        """Run up to ``steps`` steps in one ``run_steady_steps`` call and take what it
+        hands over. Returns the steps done and the stage at which the step after them
+        stopped for Python to finish it (``FINISHED``: none did)."""
+        b, c, pf, warm = self.bodies, self._contacts, self._point_forces, self._warm_start
+        acted, acted_impulses = self._acted
+        cycles = np.zeros(len(STAGE_NAMES), np.int64)
+        calls = np.zeros(len(STAGE_NAMES), np.int64)
+        start = perf_counter()
+        (
+            done, stop, bad, ints, floats, count, acted_ints, acted_floats, acted_count,
+            impulses, previous_ints, previous_floats, previous_count, previous_impulses,
+            warm.keys, warm.values, *cache, candidate_count, self._fast_count, self._slowest,
+            refit,
+        ) = run_steady_steps(
+            steps, self._pipeline[0][0] == "forces", self._pipeline[-1][0] == "sleep",
+            self._settings, self._polygon, INTEGRATORS[self.integrator], self.dt, b.count,
+            self._frozen, self._solved, *self._state, *self._constants,
+            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
+            *b.saved_state(), self._start_position, self._start_orientation,
+            self._contact_stats, *self._collision.steady_arguments(self.dt), c.ints, c.floats,
+            c.count, warm.keys, warm.values, acted.ints, acted.floats, acted.count,
+            acted_impulses, *self._collision.convex_cache, cycles, calls,
+        )  # fmt: skip
+        self._share_profile(perf_counter() - start, cycles, calls)
+        self._contacts = ContactSet(ints, floats, count)
+        self._acted = (ContactSet(acted_ints, acted_floats, acted_count), impulses)
+        self._candidates = self._collision.take_steady(refit, candidate_count, tuple(cache))
+        if calls[STAGE_NAMES.index("contacts")]:
+            self._impact_count = 0
+        for _ in range(done):  # the staged steps' sum, to the bit
             self.time += self.dt
-            self.steps_taken += 1
-            if self._stale_plan:
-                self._plan_stages()
+        self.steps_taken += done
+        if stop != FINISHED:
+            # the stopped step began with what its impulses act at; the step before's acted
+            previous = ContactSet(previous_ints, previous_floats, previous_count)
+            self._saved = (self._acted[0], (previous, previous_impulses), self.applied_forces)
+            self._rewound = False
+            if bad >= 0:
+                self._restore()
+                raise NonFiniteStateError(
+                    bad, self.bodies.names[bad], STAGE_NAMES[stop], self.steps_taken
+                )
+        return done, stop
+
+    def _share_profile(self, seconds: float, cycles: np.ndarray, calls: np.ndarray) -> None:
+        """Share a ``run_steady_steps`` call's wall time among the stages it ran, in
+        proportion to their cycles (to their calls where the target counts no cycles)."""
+        total = int(cycles.sum())
+        weights = cycles / total if total > 0 else calls / max(int(calls.sum()), 1)
+        for k in np.flatnonzero(calls):
+            entry = self.profile[STAGE_NAMES[k]]
+            entry["calls"] += int(calls[k])
+            entry["seconds"] += seconds * float(weights[k])
 
     def _detect_contacts(self) -> None:
         """Find the contacts where the bodies are now, for the first step after the scene

@@ -290,6 +290,32 @@ class CollisionPipeline:
         self.stats["candidate_pairs"] = len(candidates)
         return candidates
 
+    @property
+    def steady_ready(self) -> bool:
+        """Whether the next steps' detection can run inside ``run_steady_steps``: every body
+        convex and the fat boxes fitted (the first ``bounds`` after a plan fits them)."""
+        return self._every_body_convex and not self._refit_all
+
+    def steady_arguments(self, dt: float) -> tuple:
+        """What ``run_steady_steps`` takes of the detection stages, from ``size`` to
+        ``center_of_mass_local`` (the fat pairs and candidate buffer change when the
+        sweep-and-prune pairs do: ask again after every ``broad_phase``)."""
+        return (
+            self._size, PREDICTION_STEPS * dt, self.fat, self._fast, self.fat_pairs,
+            self.pair_members, self.box_offset, self.box_half, SPECULATIVE_FRACTION,
+            self._reach, self.tight, self._candidates, self.hull_of_body, self._hull_arrays,
+            self.hulls.longest_loop, self._center_of_mass_local,
+        )  # fmt: skip
+
+    def take_steady(self, refit: bool, candidate_count: int, cache: tuple) -> np.ndarray:
+        """Take what ``run_steady_steps`` did to the detection state: whether a body left its
+        fat box, the candidates it wrote (their count) and the convex coherence cache.
+        Returns the candidate pairs (a view that the next broad phase overwrites)."""
+        self._fat_changed |= refit
+        self.convex_cache = cache
+        self.stats["candidate_pairs"] = self.stats["convex_pairs"] = candidate_count
+        return self._candidates[:candidate_count]
+
     def _tight_bounds(self, members: np.ndarray, out: np.ndarray) -> None:
         """Tight boxes of the bodies ``members`` (m,) into ``out`` (2, n, 3)."""
         tight_bounds(

@@ -23,14 +23,14 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 
-__all__ = ["BodyArrays"]
+__all__ = ["BodyArrays", "copy_state"]
 
 # The fields that make up the state (x, q, P, L): what a step changes.
 STATE_FIELDS = ("position", "orientation", "linear_momentum", "angular_momentum")
 
 
 @njit(allocates=False)
-def _copy_state(count, x, q, P, L, x_to, q_to, P_to, L_to):
+def copy_state(count, x, q, P, L, x_to, q_to, P_to, L_to):
     """Copy the first ``count`` rows of the state arrays into the ``*_to`` arrays."""
     for i in range(count):
         for a in range(3):
@@ -118,16 +118,26 @@ class BodyArrays:
 
     def save_state(self) -> None:
         """Keep a copy of the state (x, q, P, L) that ``restore_state`` puts back."""
+        self._allocate_saved()
+        copy_state(self.count, *self._save_arguments)
+
+    def saved_state(self) -> tuple[np.ndarray, ...]:
+        """The arrays ``save_state`` copies the state into and ``restore_state`` copies it
+        back from: position, orientation, linear and angular momentum (capacity rows), for a
+        kernel that saves the state itself."""
+        self._allocate_saved()
+        return self._saved
+
+    def restore_state(self) -> None:
+        """Put back the state of the last ``save_state``."""
+        copy_state(self.count, *self._restore_arguments)
+
+    def _allocate_saved(self) -> None:
         if self._saved[0].shape[0] != self.capacity:
             state = tuple(self._storage[f] for f in STATE_FIELDS)
             self._saved = tuple(np.empty_like(a) for a in state)
             self._save_arguments = state + self._saved
             self._restore_arguments = self._saved + state
-        _copy_state(self.count, *self._save_arguments)
-
-    def restore_state(self) -> None:
-        """Put back the state of the last ``save_state``."""
-        _copy_state(self.count, *self._restore_arguments)
 
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""
