@@ -39,6 +39,10 @@ SCENES = {
 ENGINES = ("ours", "ours_mesh", "pybullet", "mujoco")
 # steps per timed round: small scenes cost microseconds, so a round holds several steps
 STEPS_PER_ROUND = {"one_cube": 20, "ten_cubes": 20}
+# steps timed per engine: this shared machine switches between a fast and a slow speed every
+# few hundred to few thousand steps of a small scene, so its engines are timed over enough
+# steps to see both, or one engine's median may be all fast and another's all slow
+TIMED_STEPS = {"one_cube": 4000, "ten_cubes": 4000}
 
 
 def build(scene: str, engine: str):
@@ -83,7 +87,7 @@ def test_step(benchmark, scene, engine):
         if world is not None:
             contacts.append(len(world.contacts["depths"]))
 
-    rounds = 200 // repeat
+    rounds = TIMED_STEPS.get(scene, 200) // repeat
     clock = time.perf_counter()
     benchmark.pedantic(timed, rounds=rounds, iterations=1, warmup_rounds=0)
     wall = time.perf_counter() - clock
