@@ -57,8 +57,8 @@ FINISHED = -1
 
 @njit
 def run_steady_steps(
-    steps, has_forces, sleeps,
-    settings, polygon, method, dt, count, frozen, solved,
+    steps, frozen, has_forces, sleeps,
+    settings, polygon, method, dt, count, solved,
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
@@ -77,13 +77,15 @@ def run_steady_steps(
     ----------
     steps : int
         Most steps to run.
+    frozen : (>= n,) bool
+        The static bodies (none may be asleep), as ``solve_contacts`` takes them.
     has_forces : bool
         Whether the world plans a forces stage (gravity, already in ``external_force``).
     sleeps : bool
         Whether the world plans a sleep stage: every step then stops there.
     settings ... pf_force
-        As ``solve_contacts`` and ``integrate_bodies`` take them (``frozen`` the static
-        bodies, none asleep; ``method`` a value of ``INTEGRATORS``; ``count`` bodies n).
+        As ``solve_contacts`` and ``integrate_bodies`` take them (``method`` a value of
+        ``INTEGRATORS``; ``count`` bodies n).
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum
         Out: the state at the start of the last step begun (``BodyArrays.saved_state``).
     start_position, start_orientation, stats
@@ -102,7 +104,7 @@ def run_steady_steps(
     cache_ints ... cache_count
         The convex pairs' coherence cache (see ``convex_contacts_for_pairs``).
     cycles, calls : (len(STAGE_NAMES),) int64
-        Out, added to: cycles spent in and calls of each stage.
+        Out: cycles spent in and calls of each stage during this call.
 
     Returns
     -------
@@ -116,6 +118,8 @@ def run_steady_steps(
         five arguments); the candidate count in ``candidates``; the fast-body count; the
         smallest (speed / radius)^2 of a moving body; whether a body left its fat box.
     """
+    cycles[:] = 0
+    calls[:] = 0
     previous = (acted_ints, acted_floats, acted_count, acted_impulses)
     acted = previous
     candidate_count, fast_count, slowest, refit = 0, 0, np.inf, False

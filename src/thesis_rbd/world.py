@@ -374,6 +374,24 @@ class World(WorldReadout):
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
         self._external_force = self._gravity_force
         self._point_forces = PointForces.empty(n)
+        self._gather_steady_arguments()
+
+    def _gather_steady_arguments(self) -> None:
+        """What ``run_steady_steps`` takes of the world, from ``has_forces`` to ``stats``,
+        gathered once per plan; and the arrays it counts each stage's cycles and calls in."""
+        if not self._steady:
+            return
+        b, pf = self.bodies, self._point_forces
+        self._stage_cycles = np.zeros(len(STAGE_NAMES), np.int64)
+        self._stage_calls = np.zeros(len(STAGE_NAMES), np.int64)
+        self._steady_arguments = (
+            self._pipeline[0][0] == "forces", self._pipeline[-1][0] == "sleep",
+            self._settings, self._polygon, INTEGRATORS[self.integrator], self.dt, b.count,
+            self._solved, *self._state, *self._constants,
+            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
+            *b.saved_state(), self._start_position, self._start_orientation,
+            self._contact_stats,
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -437,10 +455,9 @@ class World(WorldReadout):
         """Run up to ``steps`` steps in one ``run_steady_steps`` call and take what it
         hands over. Returns the steps done and the stage at which the step after them
         stopped for Python to finish it (``FINISHED``: none did)."""
-        b, c, pf, warm = self.bodies, self._contacts, self._point_forces, self._warm_start
+        c, warm = self._contacts, self._warm_start
         acted, acted_impulses = self._acted
-        cycles = np.zeros(len(STAGE_NAMES), np.int64)
-        calls = np.zeros(len(STAGE_NAMES), np.int64)
+        cycles, calls = self._stage_cycles, self._stage_calls
         start = perf_counter()
         (
             done, stop, bad, ints, floats, count, acted_ints, acted_floats, acted_count,
@@ -448,14 +465,10 @@ class World(WorldReadout):
             warm.keys, warm.values, *cache, candidate_count, self._fast_count, self._slowest,
             refit,
         ) = run_steady_steps(
-            steps, self._pipeline[0][0] == "forces", self._pipeline[-1][0] == "sleep",
-            self._settings, self._polygon, INTEGRATORS[self.integrator], self.dt, b.count,
-            self._frozen, self._solved, *self._state, *self._constants,
-            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
-            *b.saved_state(), self._start_position, self._start_orientation,
-            self._contact_stats, *self._collision.steady_arguments(self.dt), c.ints, c.floats,
-            c.count, warm.keys, warm.values, acted.ints, acted.floats, acted.count,
-            acted_impulses, *self._collision.convex_cache, cycles, calls,
+            steps, self._frozen, *self._steady_arguments,
+            *self._collision.steady_arguments(self.dt),
+            c.ints, c.floats, c.count, warm.keys, warm.values, acted.ints, acted.floats,
+            acted.count, acted_impulses, *self._collision.convex_cache, cycles, calls,
         )  # fmt: skip
         self._share_profile(perf_counter() - start, cycles, calls)
         self._contacts = ContactSet(ints, floats, count)
@@ -481,12 +494,15 @@ class World(WorldReadout):
     def _share_profile(self, seconds: float, cycles: np.ndarray, calls: np.ndarray) -> None:
         """Share a ``run_steady_steps`` call's wall time among the stages it ran, in
         proportion to their cycles (to their calls where the target counts no cycles)."""
-        total = int(cycles.sum())
-        weights = cycles / total if total > 0 else calls / max(int(calls.sum()), 1)
-        for k in np.flatnonzero(calls):
-            entry = self.profile[STAGE_NAMES[k]]
-            entry["calls"] += int(calls[k])
-            entry["seconds"] += seconds * float(weights[k])
+        cycles, calls = cycles.tolist(), calls.tolist()
+        total = sum(cycles)
+        weights = cycles if total > 0 else calls
+        scale = seconds / (total if total > 0 else max(sum(calls), 1))
+        for name, count, weight in zip(STAGE_NAMES, calls, weights, strict=True):
+            if count:
+                entry = self.profile[name]
+                entry["calls"] += count
+                entry["seconds"] += scale * weight
 
     def _detect_contacts(self) -> None:
         """Find the contacts where the bodies are now, for the first step after the scene
