@@ -123,3 +123,18 @@ def test_a_non_finite_steady_step_leaves_the_world_as_it_was(sleeping):
     assert world.time == time and world.steps_taken == 10
     for key, value in contacts.items():
         np.testing.assert_array_equal(world.contacts[key], value)
+
+
+def test_without_a_cycle_counter_the_kernel_time_is_shared_by_calls():
+    """Off x86-64 the kernel counts no cycles: each stage then gets its share of calls."""
+    world = resting_row(sleeping=False)
+    cycles = np.zeros(len(STAGE_NAMES), np.int64)
+    calls = np.zeros(len(STAGE_NAMES), np.int64)
+    calls[STAGE_NAMES.index("contacts")], calls[STAGE_NAMES.index("integrate")] = 3, 1
+    world._share_profile(2.0, cycles, calls)
+    assert world.profile["contacts"] == {"calls": 3, "seconds": 1.5}
+    assert world.profile["integrate"] == {"calls": 1, "seconds": 0.5}
+    cycles[STAGE_NAMES.index("contacts")], cycles[STAGE_NAMES.index("integrate")] = 10, 30
+    world._share_profile(2.0, cycles, calls)
+    assert world.profile["contacts"]["seconds"] == pytest.approx(1.5 + 0.5)
+    assert world.profile["integrate"]["seconds"] == pytest.approx(0.5 + 1.5)
