@@ -2,9 +2,10 @@
 
 Each stage of a step is a kernel, and each kernel call from Python costs microseconds of
 argument checks and unboxing: for one cube resting on a floor, more than the stages' work.
-While a world is steady -- every body convex, gravity the only force, every body awake -- each
-stage of its step is one known kernel, so ``run_steady_steps`` runs them all in one call, step
-after step, in the world's order:
+While a world is steady -- every body convex, gravity the only force, every body awake, and
+penetration handled by time of impact (the default) -- each stage of its step is one known
+kernel, so ``run_steady_steps`` runs them all in one call, step after step, in the world's
+order:
 
     forces -> contacts -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling
            -> time_of_impact -> impacts -> sleep
