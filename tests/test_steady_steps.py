@@ -78,14 +78,15 @@ def test_the_kernel_runs_whole_steps_and_stops_where_python_must_go_on():
     stop it (an impact or a refit), and it says at which stage."""
     world = resting_row(sleeping=False)
     world.step(2)  # the first steps fit the fat boxes, stage by stage
-    done, stop = world._run_steady_steps(40)
-    assert (done, stop) == (40, FINISHED)
+    done, stop, bad = world._run_steady_steps(40)
+    assert (done, stop, bad) == (40, FINISHED, -1)
     assert world.steps_taken == 42
     pile = tumbling_pile(sleeping=False)
     pile.step(2)
     stops = set()
     for _ in range(150):
-        done, stop = pile._run_steady_steps(10)
+        done, stop, bad = pile._run_steady_steps(10)
+        assert bad == -1
         if stop != FINISHED:
             stops.add(STAGE_NAMES[stop])
             pile._run_stages(stop)

@@ -70,7 +70,7 @@ def run_steady_steps(
     contact_ints, contact_floats, contact_count, warm_keys, warm_values,
     acted_ints, acted_floats, acted_count, acted_impulses,
     cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count,
-    cycles, calls,
+    time, cycles, calls,
 ):  # fmt: skip
     """Run up to ``steps`` steady steps of a world whose bodies are all convex and awake.
 
@@ -104,20 +104,24 @@ def run_steady_steps(
         What the last step's impulses acted at: its contacts and impulses (c, 3).
     cache_ints ... cache_count
         The convex pairs' coherence cache (see ``convex_contacts_for_pairs``).
+    time : float
+        The world's time (s); ``dt`` is added to it once per finished step, as the world
+        adds it after a step run stage by stage.
     cycles, calls : (len(STAGE_NAMES),) int64
         Out: cycles spent in and calls of each stage during this call.
 
     Returns
     -------
     tuple
-        ``done`` steps finished; ``stop``, the stage at which the next step stopped for
-        Python to finish it (``FINISHED`` if none did); ``bad_body``, the body a failed stage
-        left non-finite (the state is then as at that step's start in the saved arrays), or
-        -1; the contacts where the bodies are now (ints, floats, count); what the stopped or
-        last step's impulses acted at (ints, floats, count, impulses) and what the step
-        before's did (the same four); the warm start (keys, values); the coherence cache (its
-        five arguments); the candidate count in ``candidates``; the fast-body count; the
-        smallest (speed / radius)^2 of a moving body; whether a body left its fat box.
+        ``done`` steps finished; the time after them; ``stop``, the stage at which the next
+        step stopped for Python to finish it (``FINISHED`` if none did); ``bad_body``, the
+        body a failed stage left non-finite (the state is then as at that step's start in
+        the saved arrays), or -1; the contacts where the bodies are now (ints, floats,
+        count); what the stopped or last step's impulses acted at (ints, floats, count,
+        impulses) and what the step before's did (the same four); the warm start (keys,
+        values); the coherence cache (its five arguments); the candidate count in
+        ``candidates``; the fast-body count; the smallest (speed / radius)^2 of a moving
+        body; whether a body left its fat box.
     """
     cycles[:] = 0
     calls[:] = 0
@@ -204,12 +208,13 @@ def run_steady_steps(
             stop = SLEEP
             break
         done += 1
+        time += dt
     if stop == FINISHED:
         previous = acted  # the step before the last is of no use to the caller
     acted_ints, acted_floats, acted_count, acted_impulses = acted
     previous_ints, previous_floats, previous_count, previous_impulses = previous
     return (
-        done, stop, bad, contact_ints, contact_floats, contact_count,
+        done, time, stop, bad, contact_ints, contact_floats, contact_count,
         acted_ints, acted_floats, acted_count, acted_impulses,
         previous_ints, previous_floats, previous_count, previous_impulses,
         warm_keys, warm_values, cache_ints, cache_floats, cache_int_offset, cache_float_offset,

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 from time import perf_counter
+from typing import NoReturn
 
 import numpy as np
 
@@ -62,8 +63,9 @@ from thesis_rbd.dynamics.resting_contact import STATS, solve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.dynamics.warm_start import WarmStart
 from thesis_rbd.stage_names import STAGE_NAMES
-from thesis_rbd.steady_steps import FINISHED, run_steady_steps
+from thesis_rbd.steady_steps import FINISHED
 from thesis_rbd.world_readout import WorldReadout
+from thesis_rbd.world_steady import WorldSteadySteps
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
@@ -103,7 +105,7 @@ class _StepFailed(Exception):
         self.body = body
 
 
-class World(WorldReadout):
+class World(WorldSteadySteps, WorldReadout):
     """A rigid-body world stepped at a fixed time step.
 
     Parameters
@@ -374,24 +376,8 @@ class World(WorldReadout):
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
         self._external_force = self._gravity_force
         self._point_forces = PointForces.empty(n)
-        self._gather_steady_arguments()
-
-    def _gather_steady_arguments(self) -> None:
-        """What ``run_steady_steps`` takes of the world, from ``has_forces`` to ``stats``,
-        gathered once per plan; and the arrays it counts each stage's cycles and calls in."""
-        if not self._steady:
-            return
-        b, pf = self.bodies, self._point_forces
-        self._stage_cycles = np.zeros(len(STAGE_NAMES), np.int64)
-        self._stage_calls = np.zeros(len(STAGE_NAMES), np.int64)
-        self._steady_arguments = (
-            self._pipeline[0][0] == "forces", self._pipeline[-1][0] == "sleep",
-            self._settings, self._polygon, INTEGRATORS[self.integrator], self.dt, b.count,
-            self._solved, *self._state, *self._constants,
-            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
-            *b.saved_state(), self._start_position, self._start_orientation,
-            self._contact_stats,
-        )  # fmt: skip
+        if self._steady:
+            self._gather_steady_arguments()
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -409,11 +395,13 @@ class World(WorldReadout):
         while remaining > 0:
             if self._contacts_stale:
                 self._detect_contacts()
-            if self._steady and self._steady_now():
-                done, first = self._run_steady_steps(remaining)
+            if self._steady_now():
+                done, first, bad = self._run_steady_steps(remaining)
                 remaining -= done
                 if first == FINISHED:
                     continue
+                if bad >= 0:
+                    self._fail(bad, STAGE_NAMES[first])
             else:
                 self._save()
                 first = 0
@@ -429,11 +417,7 @@ class World(WorldReadout):
             try:
                 stage()
             except _StepFailed as failure:
-                self._restore()
-                body = failure.body
-                raise NonFiniteStateError(
-                    body, self.bodies.names[body], name, self.steps_taken
-                ) from None
+                self._fail(failure.body, name)
             entry["seconds"] += perf_counter() - start
             entry["calls"] += 1
         self.time += self.dt
@@ -441,68 +425,11 @@ class World(WorldReadout):
         if self._stale_plan:
             self._plan_stages()
 
-    def _steady_now(self) -> bool:
-        """Whether the next steps may run in ``run_steady_steps``: every body awake, the
-        contacts found and the detection ready for it."""
-        return (
-            self._awake
-            and not self._any_asleep
-            and not self._contacts_stale
-            and self._collision.steady_ready
-        )
-
-    def _run_steady_steps(self, steps: int) -> tuple[int, int]:
-        """Run up to ``steps`` steps in one ``run_steady_steps`` call and take what it
-        hands over. Returns the steps done and the stage at which the step after them
-        stopped for Python to finish it (``FINISHED``: none did)."""
-        c, warm = self._contacts, self._warm_start
-        acted, acted_impulses = self._acted
-        cycles, calls = self._stage_cycles, self._stage_calls
-        start = perf_counter()
-        (
-            done, stop, bad, ints, floats, count, acted_ints, acted_floats, acted_count,
-            impulses, previous_ints, previous_floats, previous_count, previous_impulses,
-            warm.keys, warm.values, *cache, candidate_count, self._fast_count, self._slowest,
-            refit,
-        ) = run_steady_steps(
-            steps, self._frozen, *self._steady_arguments,
-            *self._collision.steady_arguments(self.dt),
-            c.ints, c.floats, c.count, warm.keys, warm.values, acted.ints, acted.floats,
-            acted.count, acted_impulses, *self._collision.convex_cache, cycles, calls,
-        )  # fmt: skip
-        self._share_profile(perf_counter() - start, cycles, calls)
-        self._contacts = ContactSet(ints, floats, count)
-        self._acted = (ContactSet(acted_ints, acted_floats, acted_count), impulses)
-        self._candidates = self._collision.take_steady(refit, candidate_count, tuple(cache))
-        if calls[STAGE_NAMES.index("contacts")]:
-            self._impact_count = 0
-        for _ in range(done):  # the staged steps' sum, to the bit
-            self.time += self.dt
-        self.steps_taken += done
-        if stop != FINISHED:
-            # the stopped step began with what its impulses act at; the step before's acted
-            previous = ContactSet(previous_ints, previous_floats, previous_count)
-            self._saved = (self._acted[0], (previous, previous_impulses), self.applied_forces)
-            self._rewound = False
-            if bad >= 0:
-                self._restore()
-                raise NonFiniteStateError(
-                    bad, self.bodies.names[bad], STAGE_NAMES[stop], self.steps_taken
-                )
-        return done, stop
-
-    def _share_profile(self, seconds: float, cycles: np.ndarray, calls: np.ndarray) -> None:
-        """Share a ``run_steady_steps`` call's wall time among the stages it ran, in
-        proportion to their cycles (to their calls where the target counts no cycles)."""
-        cycles, calls = cycles.tolist(), calls.tolist()
-        total = sum(cycles)
-        weights = cycles if total > 0 else calls
-        scale = seconds / (total if total > 0 else max(sum(calls), 1))
-        for name, count, weight in zip(STAGE_NAMES, calls, weights, strict=True):
-            if count:
-                entry = self.profile[name]
-                entry["calls"] += count
-                entry["seconds"] += scale * weight
+    def _fail(self, body: int, stage: str) -> NoReturn:
+        """Put the world back as it was before this step and raise the error naming the
+        body that went non-finite, the stage and the step."""
+        self._restore()
+        raise NonFiniteStateError(body, self.bodies.names[body], stage, self.steps_taken) from None
 
     def _detect_contacts(self) -> None:
         """Find the contacts where the bodies are now, for the first step after the scene
