@@ -5,6 +5,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from tests.reference_pgs import nearest_in_polygon, reference_pgs
 from thesis_rbd.dynamics.contact_solver import (
     contact_basis,
     relative_velocity,
@@ -224,6 +225,26 @@ def test_pgs_converges_to_the_exact_velocities_without_friction(seed, count):
     np.testing.assert_allclose(w_pgs, w, atol=1e-5 * (1 + np.abs(w).max()))
 
 
+@given(st.integers(0, 10**6), st.integers(1, 6), st.integers(1, 4), st.booleans())
+def test_pgs_sweeps_agree_with_a_row_by_row_reference(seed, count, sweeps, warm):
+    """The kernel reads a contact's three velocities at once and applies its three impulses
+    together; the reference solves row after row from the Jacobians. Same iteration."""
+    contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    rng = np.random.default_rng(seed + 1)
+    start = np.zeros((count, 3))
+    if warm:
+        start[:, 0] = rng.uniform(0, 1, count)
+        start[:, 1:] = rng.uniform(-0.3, 0.3, (count, 2)) * (friction * start[:, 0])[:, None]
+    v_ref, w_ref, ours = v.copy(), w.copy(), start.copy()
+    reference = start.copy()
+    reference_pgs(sweeps, 8, contacts, bias, friction, (v_ref, w_ref, im, ii), reference)
+    solve_pgs(sweeps, 8, contacts, bias, friction, (v, w, im, ii), ours, tolerance=0.0)
+    scale = 1 + np.abs(reference).max()
+    np.testing.assert_allclose(ours, reference, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-9 * (1 + np.abs(v_ref).max()))
+    np.testing.assert_allclose(w, w_ref, rtol=0, atol=1e-9 * (1 + np.abs(w_ref).max()))
+
+
 def test_exact_solver_rarely_falls_back():
     """Random contact sets can be jammed (no velocity satisfies every contact); Lemke's path
     then ends on a secondary ray and the island goes to PGS. Count how often."""
@@ -262,6 +283,14 @@ def test_polygon_projection_against_brute_force():
             assert np.linalg.norm(p - point) <= np.linalg.norm(nearest - point) + 1e-12
             assert np.linalg.norm(p - nearest) < 2e-3
     assert project_onto_polygon(1.0, 1.0, 0.0, friction_polygon(4)) == (0.0, 0.0)
+
+
+@given(st.floats(-10, 10, allow_nan=False), st.floats(-10, 10, allow_nan=False), st.integers(3, 12))
+def test_polygon_projection_finds_the_sector_of_any_angle(x1, x2, sides):
+    """The sector search (no arctangent) on every side count and angle, vertices and axes
+    included, against the nearest of all edges' projections."""
+    ours = np.array(project_onto_polygon(x1, x2, 1.7, friction_polygon(sides)))
+    np.testing.assert_allclose(ours, nearest_in_polygon((x1, x2), 1.7, sides), atol=1e-12)
 
 
 def test_basis_is_orthonormal_and_right_handed():

@@ -146,12 +146,12 @@ def solve_pgs(iterations, sides, contacts, bias, friction, bodies, impulse, tole
     body_a, body_b, arm_a, arm_b, basis = contacts
     velocity, angular_velocity, inverse_mass, inverse_inertia = bodies
     rows = build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inertia)
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     _, converged = sweep_island(
         0, body_a.shape[0], iterations, np.full(body_a.shape[0], tolerance),
         friction_polygon(sides), body_a, body_b,
         basis, angular_a, angular_b, response_a, response_b, normal_step, tangent_step,
-        inverse_mass, bias, friction, velocity, angular_velocity, impulse,
+        coupling, inverse_mass, bias, friction, velocity, angular_velocity, impulse,
     )  # fmt: skip
     return converged
 

@@ -64,7 +64,7 @@ def solve_islands(
     stats : (6,) int64
         ``resting_contact.STATS`` counters, updated.
     """
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     solver = int(settings[cs.SOLVER])
     iterations = int(settings[cs.ITERATIONS])
     exact_limit = int(settings[cs.EXACT_LIMIT])
@@ -77,8 +77,8 @@ def solve_islands(
         if not exact:
             sweeps, converged = sweep_island(
                 s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
-                angular_b, response_a, response_b, normal_step, tangent_step, inverse_mass,
-                bias, friction, v, w, impulse,
+                angular_b, response_a, response_b, normal_step, tangent_step, coupling,
+                inverse_mass, bias, friction, v, w, impulse,
             )  # fmt: skip
             stats[1] += sweeps
             stats[2] = max(stats[2], sweeps)
@@ -154,7 +154,7 @@ def correct_positions(
         return 0  # nothing to push out: the common case of resting contact
     dt = settings[cs.DT]
     n = inverse_mass.shape[0]
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step = rows
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     pseudo_v = np.zeros((n, 3))
     pseudo_w = np.zeros((n, 3))
     lam = np.zeros((c, 3))
@@ -171,7 +171,7 @@ def correct_positions(
             continue
         done, _ = sweep_island(
             s, e, int(settings[cs.ITERATIONS]), tolerance, no_polygon, body_a, body_b, basis,
-            angular_a, angular_b, response_a, response_b, normal_step, tangent_step,
+            angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling,
             inverse_mass, bias, frictionless, pseudo_v, pseudo_w, lam,
         )  # fmt: skip
         sweeps += done

@@ -15,6 +15,14 @@ A sweep visits the contacts in order (sequential impulses):
   step keeps the fixed point that of the contact problem (maximal dissipation); per-row steps
   would project in a skewed metric and converge to a different friction impulse.
 
+A sweep is a chain of dependent arithmetic (each contact reads the velocities the one before
+wrote), so its speed is the latency of that chain, not the number of operations. A contact's
+three relative velocities are therefore read at once from the velocities before its update,
+each as three short sums rather than one nine-term running sum; the tangent velocities then
+add the normal update's share through the coupling K_tn (stored by :func:`build_rows`), and
+the three impulses reach the bodies as one combined update. This is the same iteration as
+updating row by row, in a different rounding.
+
 Sweeps stop once a sweep changed no contact's velocity by more than its tolerance (each
 row's update is the residual of its own condition, in velocity units: |delta lambda| K), so
 "converged" means every condition holds to that velocity, not merely that PGS has slowed
@@ -23,7 +31,8 @@ A warm-started resting island converges in one or two sweeps.
 
 Arrays for c contacts and n bodies: ``basis`` (c, 3, 3) rows n, t1, t2; ``angular_a``,
 ``angular_b`` (c, 3, 3) rows r x e_d; ``response_a``, ``response_b`` (c, 3, 3) rows
-I^-1 (r x e_d); body velocities ``velocity``, ``angular_velocity`` (n, 3), world frame.
+I^-1 (r x e_d); ``coupling`` (c, 2) K_t1n, K_t2n; body velocities ``velocity``,
+``angular_velocity`` (n, 3), world frame.
 """
 
 from __future__ import annotations
@@ -50,6 +59,19 @@ def friction_polygon(sides):
 
 
 @njit(allocates=False)
+def _pseudo_angle(x, y):
+    """A number in [0, 4) that increases with the angle of (x, y) over [0, 2 pi): its sector
+    among the polygon's vertices without an arctangent (one division instead)."""
+    if y >= 0.0:
+        if x >= 0.0:
+            return y / (x + y) if x + y > 0.0 else 0.0
+        return 1.0 - x / (y - x)
+    if x < 0.0:
+        return 2.0 - y / (-x - y)
+    return 3.0 + x / (x - y)
+
+
+@njit(allocates=False)
 def project_onto_polygon(x1, x2, radius, polygon):
     """Nearest point to (x1, x2) in the polygon ``polygon`` scaled to circumradius ``radius``."""
     if radius <= 0.0:
@@ -60,12 +82,15 @@ def project_onto_polygon(x1, x2, radius, polygon):
     inner2 = radius * radius * (mid_x * mid_x + mid_y * mid_y)
     if x1 * x1 + x2 * x2 <= inner2:
         return x1, x2
+    # sector j (vertex j at or before the point's angle, vertex j + 1 after it): a first
+    # guess from the pseudo-angle, then exact comparisons with the vertices' pseudo-angles
     sides = polygon.shape[0] - 1
-    sector = 2.0 * math.pi / sides
-    angle = math.atan2(x2, x1)
-    if angle < 0.0:
-        angle += 2.0 * math.pi
-    j = min(int(angle / sector), sides - 1)
+    angle = _pseudo_angle(x1, x2)
+    j = min(int(angle * sides * 0.25), sides - 1)
+    while j > 0 and angle < _pseudo_angle(polygon[j, 0], polygon[j, 1]):
+        j -= 1
+    while j < sides - 1 and angle >= _pseudo_angle(polygon[j + 1, 0], polygon[j + 1, 1]):
+        j += 1
     p1, p2 = radius * polygon[j, 0], radius * polygon[j, 1]
     e1, e2 = radius * polygon[j + 1, 0] - p1, radius * polygon[j + 1, 1] - p2
     # inside when on the inner side of edge j (its outward normal is (e2, -e1))
@@ -99,6 +124,8 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
         1 / K_nn (0 where the contact cannot move, e.g. two static bodies).
     tangent_step : (c,) float64
         1 / lambda_max(K_tt), the scalar friction step.
+    coupling : (c, 2) float64
+        K_t1n, K_t2n: the change of each tangent velocity per unit normal impulse.
     """
     c = body_a.shape[0]
     angular_a = np.empty((c, 3, 3))
@@ -107,6 +134,7 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
     response_b = np.empty((c, 3, 3))
     normal_step = np.zeros(c)
     tangent_step = np.zeros(c)
+    coupling = np.empty((c, 2))
     K = np.empty((3, 3))
     for k in range(c):
         a, b = body_a[k], body_b[k]
@@ -142,26 +170,26 @@ def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inerti
                     value += angular_a[k, d1, i] * response_a[k, d2, i]
                     value += angular_b[k, d1, i] * response_b[k, d2, i]
                 K[d1, d2] = value
+        coupling[k, 0] = K[1, 0]
+        coupling[k, 1] = K[2, 0]
         if K[0, 0] > 0.0:
             normal_step[k] = 1.0 / K[0, 0]
         half_trace = 0.5 * (K[1, 1] + K[2, 2])
         largest = half_trace + math.sqrt(max(0.25 * (K[1, 1] - K[2, 2]) ** 2 + K[1, 2] ** 2, 0.0))
         if largest > 0.0:
             tangent_step[k] = 1.0 / largest
-    return angular_a, angular_b, response_a, response_b, normal_step, tangent_step
+    return angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling
 
 
 @njit(allocates=False)
-def _row_velocity(k, d, a, b, basis, angular_a, angular_b, velocity, angular_velocity):
-    """u . e_d at contact k: (v_a + w_a x r_a - v_b - w_b x r_b) . e_d."""
-    # element reads, not row views: a view of a row costs a reference count in and out,
-    # which in this innermost loop is more than the arithmetic
-    u = 0.0
-    for i in range(3):
-        u += basis[k, d, i] * (velocity[a, i] - velocity[b, i])
-        u += angular_a[k, d, i] * angular_velocity[a, i]
-        u -= angular_b[k, d, i] * angular_velocity[b, i]
-    return u
+def _row_velocity(k, d, basis, angular_a, angular_b, dv0, dv1, dv2, wa0, wa1, wa2, wb0, wb1, wb2):
+    """u . e_d at contact k from the relative linear velocity dv = v_a - v_b and the angular
+    velocities: three short sums (linear, a's turn, b's turn), not one running sum, so that
+    the additions do not wait on each other."""
+    linear = basis[k, d, 0] * dv0 + basis[k, d, 1] * dv1 + basis[k, d, 2] * dv2
+    turn_a = angular_a[k, d, 0] * wa0 + angular_a[k, d, 1] * wa1 + angular_a[k, d, 2] * wa2
+    turn_b = angular_b[k, d, 0] * wb0 + angular_b[k, d, 1] * wb1 + angular_b[k, d, 2] * wb2
+    return linear + (turn_a - turn_b)
 
 
 @njit(allocates=False)
@@ -176,9 +204,21 @@ def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, veloc
 
 
 @njit(allocates=False)
+def _apply_impulse(k, a, b, dn, d1, d2, basis, response_a, response_b, inverse_mass, v, w):
+    """Impulses dn, d1, d2 along n, t1, t2 of contact k, in one update of both bodies."""
+    ma, mb = inverse_mass[a], inverse_mass[b]
+    for i in range(3):
+        linear = dn * basis[k, 0, i] + d1 * basis[k, 1, i] + d2 * basis[k, 2, i]
+        v[a, i] += ma * linear
+        v[b, i] -= mb * linear
+        w[a, i] += dn * response_a[k, 0, i] + d1 * response_a[k, 1, i] + d2 * response_a[k, 2, i]
+        w[b, i] -= dn * response_b[k, 0, i] + d1 * response_b[k, 1, i] + d2 * response_b[k, 2, i]
+
+
+@njit(allocates=False)
 def sweep_island(
     start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a, angular_b,
-    response_a, response_b, normal_step, tangent_step, inverse_mass, bias, friction,
+    response_a, response_b, normal_step, tangent_step, coupling, inverse_mass, bias, friction,
     velocity, angular_velocity, impulse,
 ):  # fmt: skip
     """Projected Gauss-Seidel on contacts ``start:stop``, warm started from ``impulse``.
@@ -186,7 +226,7 @@ def sweep_island(
     The warm-start impulses are applied first, then sweeps run until converged. Body
     velocities and ``impulse`` (c, 3) (lambda_n, lambda_t1, lambda_t2) are updated in place.
     The normal condition is u_n + bias >= 0 (a positive bias allows that much approach, a
-    negative one demands separation).
+    negative one demands separation). The rows are ``build_rows``'s.
 
     ``tolerance`` (c,) is each contact's velocity tolerance (m/s).
 
@@ -197,13 +237,14 @@ def sweep_island(
     converged : bool
         Whether the last sweep changed no contact velocity by more than its tolerance.
     """
+    w = angular_velocity
     for k in range(start, stop):
         a, b = body_a[k], body_b[k]
         for d in range(3):
             if impulse[k, d] != 0.0:
                 _apply_row(
                     k, d, a, b, impulse[k, d], basis, response_a, response_b, inverse_mass,
-                    velocity, angular_velocity,
+                    velocity, w,
                 )  # fmt: skip
     for sweep in range(iterations):
         converged = True
@@ -211,37 +252,43 @@ def sweep_island(
             if normal_step[k] == 0.0:
                 continue
             a, b = body_a[k], body_b[k]
-            u_n = _row_velocity(k, 0, a, b, basis, angular_a, angular_b, velocity, angular_velocity)
-            new_n = max(impulse[k, 0] - (u_n + bias[k]) * normal_step[k], 0.0)
-            delta = new_n - impulse[k, 0]
-            if delta != 0.0:
-                _apply_row(
-                    k, 0, a, b, delta, basis, response_a, response_b, inverse_mass, velocity,
-                    angular_velocity,
-                )  # fmt: skip
-                impulse[k, 0] = new_n
-                converged &= abs(delta) <= tolerance[k] * normal_step[k]
-            if friction[k] <= 0.0:
-                continue
-            h = tangent_step[k]
-            u1 = _row_velocity(k, 1, a, b, basis, angular_a, angular_b, velocity, angular_velocity)
-            u2 = _row_velocity(k, 2, a, b, basis, angular_a, angular_b, velocity, angular_velocity)
-            t1, t2 = project_onto_polygon(
-                impulse[k, 1] - h * u1, impulse[k, 2] - h * u2, friction[k] * new_n, polygon
+            # element reads, not row views: a view of a row costs a reference count in and
+            # out, which in this innermost loop is more than the arithmetic
+            dv0 = velocity[a, 0] - velocity[b, 0]
+            dv1 = velocity[a, 1] - velocity[b, 1]
+            dv2 = velocity[a, 2] - velocity[b, 2]
+            wa0, wa1, wa2 = w[a, 0], w[a, 1], w[a, 2]
+            wb0, wb1, wb2 = w[b, 0], w[b, 1], w[b, 2]
+            u_n = _row_velocity(
+                k, 0, basis, angular_a, angular_b, dv0, dv1, dv2, wa0, wa1, wa2, wb0, wb1, wb2
             )
-            d1, d2 = t1 - impulse[k, 1], t2 - impulse[k, 2]
-            if d1 != 0.0:
-                _apply_row(
-                    k, 1, a, b, d1, basis, response_a, response_b, inverse_mass, velocity,
-                    angular_velocity,
-                )  # fmt: skip
-            if d2 != 0.0:
-                _apply_row(
-                    k, 2, a, b, d2, basis, response_a, response_b, inverse_mass, velocity,
-                    angular_velocity,
-                )  # fmt: skip
-            impulse[k, 1], impulse[k, 2] = t1, t2
-            converged &= max(abs(d1), abs(d2)) <= tolerance[k] * h
+            old_n = impulse[k, 0]
+            new_n = max(old_n - (u_n + bias[k]) * normal_step[k], 0.0)
+            dn = new_n - old_n
+            impulse[k, 0] = new_n
+            converged &= abs(dn) <= tolerance[k] * normal_step[k]
+            d1 = 0.0
+            d2 = 0.0
+            if friction[k] > 0.0:
+                h = tangent_step[k]
+                # the tangent velocities after the normal update: before it, plus its share
+                u1 = _row_velocity(
+                    k, 1, basis, angular_a, angular_b, dv0, dv1, dv2, wa0, wa1, wa2, wb0, wb1, wb2
+                ) + dn * coupling[k, 0]  # fmt: skip
+                u2 = _row_velocity(
+                    k, 2, basis, angular_a, angular_b, dv0, dv1, dv2, wa0, wa1, wa2, wb0, wb1, wb2
+                ) + dn * coupling[k, 1]  # fmt: skip
+                old_1, old_2 = impulse[k, 1], impulse[k, 2]
+                t1, t2 = project_onto_polygon(
+                    old_1 - h * u1, old_2 - h * u2, friction[k] * new_n, polygon
+                )
+                d1, d2 = t1 - old_1, t2 - old_2
+                impulse[k, 1], impulse[k, 2] = t1, t2
+                converged &= max(abs(d1), abs(d2)) <= tolerance[k] * h
+            if dn != 0.0 or d1 != 0.0 or d2 != 0.0:
+                _apply_impulse(
+                    k, a, b, dn, d1, d2, basis, response_a, response_b, inverse_mass, velocity, w
+                )
         if converged:
             return sweep + 1, True
     return iterations, False

@@ -1,0 +1,84 @@
+"""Slow reference for ``pgs.sweep_island``: projected Gauss-Seidel row by row, written from
+the contact Jacobians with NumPy, for the fast kernel to agree with."""
+
+import numpy as np
+
+
+def nearest_in_polygon(point, radius, sides):
+    """Nearest point to ``point`` (2,) in the regular polygon of circumradius ``radius`` with a
+    vertex at angle 0: the point itself when inside, else the nearest of every edge's
+    clamped projections."""
+    if radius <= 0.0:
+        return np.zeros(2)
+    angles = 2 * np.pi * np.arange(sides + 1) / sides
+    vertices = radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    edges = vertices[1:] - vertices[:-1]
+    outside = edges[:, 0] * (point[1] - vertices[:-1, 1]) - edges[:, 1] * (
+        point[0] - vertices[:-1, 0]
+    )
+    if np.all(outside >= 0):
+        return np.array(point, float)
+    s = np.clip(np.einsum("ij,ij->i", point - vertices[:-1], edges) / (edges**2).sum(1), 0, 1)
+    candidates = vertices[:-1] + s[:, None] * edges
+    return candidates[np.argmin(np.linalg.norm(candidates - point, axis=1))]
+
+
+def reference_pgs(sweeps, sides, contacts, bias, friction, bodies, impulse):
+    """``sweeps`` sweeps of PGS in place: the warm start ``impulse`` (c, 3) is applied, then
+    each contact's normal row is solved exactly and its tangent rows take the isotropic step
+    h = 1 / lambda_max(K_tt) followed by the projection onto the friction polygon."""
+    body_a, body_b, arm_a, arm_b, basis = contacts
+    velocity, angular_velocity, inverse_mass, inverse_inertia = bodies
+    c = len(body_a)
+
+    def jacobian(k, d):
+        e = basis[k, d]
+        return e, np.cross(arm_a[k], e), np.cross(arm_b[k], e)
+
+    def row_velocity(k, d):
+        e, ang_a, ang_b = jacobian(k, d)
+        a, b = body_a[k], body_b[k]
+        return (
+            e @ (velocity[a] - velocity[b])
+            + ang_a @ angular_velocity[a]
+            - ang_b @ (angular_velocity[b])
+        )
+
+    def apply(k, d, j):
+        e, ang_a, ang_b = jacobian(k, d)
+        a, b = body_a[k], body_b[k]
+        velocity[a] += inverse_mass[a] * j * e
+        velocity[b] -= inverse_mass[b] * j * e
+        angular_velocity[a] += j * inverse_inertia[a] @ ang_a
+        angular_velocity[b] -= j * inverse_inertia[b] @ ang_b
+
+    def delassus(k):
+        K = np.empty((3, 3))
+        for d in range(3):
+            e, ang_a, ang_b = jacobian(k, d)
+            for f in range(3):
+                g, gang_a, gang_b = jacobian(k, f)
+                a, b = body_a[k], body_b[k]
+                K[d, f] = (inverse_mass[a] + inverse_mass[b]) * e @ g
+                K[d, f] += ang_a @ inverse_inertia[a] @ gang_a + ang_b @ inverse_inertia[b] @ gang_b
+        return K
+
+    for k in range(c):
+        for d in range(3):
+            apply(k, d, impulse[k, d])
+    for _ in range(sweeps):
+        for k in range(c):
+            K = delassus(k)
+            if K[0, 0] <= 0.0:
+                continue
+            new_n = max(impulse[k, 0] - (row_velocity(k, 0) + bias[k]) / K[0, 0], 0.0)
+            apply(k, 0, new_n - impulse[k, 0])
+            impulse[k, 0] = new_n
+            if friction[k] <= 0.0:
+                continue
+            h = 1.0 / np.linalg.eigvalsh(K[1:, 1:]).max()
+            u_t = np.array([row_velocity(k, 1), row_velocity(k, 2)])
+            t = nearest_in_polygon(impulse[k, 1:] - h * u_t, friction[k] * new_n, sides)
+            for d in (1, 2):
+                apply(k, d, t[d - 1] - impulse[k, d])
+            impulse[k, 1:] = t
