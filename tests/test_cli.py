@@ -312,6 +312,34 @@ def test_console_script_runs_a_builtin_and_lists_scenes(tmp_path, thesis_rbd_com
     assert files_in(tmp_path) == ["play.html", "run.npz"]
 
 
+def test_console_script_keeps_the_collector_off_long_lived_objects(tmp_path):
+    """The console script is ``cli.main``: the objects alive after its imports are frozen
+    out of the cyclic collector, which stays enabled for what the run makes; the
+    trajectory it writes loads whole."""
+    from importlib.metadata import entry_points
+
+    (entry,) = [e for e in entry_points(group="console_scripts") if e.name == "thesis-rbd"]
+    assert entry.value == "thesis_rbd.cli:main"
+    probe = textwrap.dedent(
+        """
+        import gc, sys
+        from thesis_rbd import cli
+        before = gc.get_freeze_count()
+        try:
+            cli.main(["run", "dzhanibekov", "--seconds", "0.5", "--out", "run.npz", "--quiet"])
+        except SystemExit as finished:
+            assert not finished.code, finished.code
+        frozen = gc.get_freeze_count()
+        print(before, frozen, gc.isenabled())
+        """
+    )
+    result = run_command(sys.executable, "-c", probe, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    before, frozen, enabled = result.stdout.split()
+    assert before == "0" and int(frozen) > 10_000 and enabled == "True"
+    assert len(rbd.Trajectory.load(tmp_path / "run.npz").times) > 1
+
+
 def test_console_script_reports_a_bad_scene_in_one_line(tmp_path, thesis_rbd_command):
     (tmp_path / "bad.toml").write_text(
         textwrap.dedent(

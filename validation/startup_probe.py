@@ -3,7 +3,7 @@
     python -m validation.startup_probe SCENE SECONDS RECORD.json
 
 runs ``thesis-rbd run SCENE --seconds SECONDS --quiet`` in this process (the console script's
-own entry point, :data:`thesis_rbd.cli.app`) under a :class:`thesis_rbd.compile_log.CompileLog`,
+own entry point, :func:`thesis_rbd.cli.main`) under a :class:`thesis_rbd.compile_log.CompileLog`,
 and writes the compiles to RECORD.json. The caller times the whole process, interpreter start
 included; :mod:`validation.studies.startup` starts it in a fresh process per measurement.
 """
@@ -19,13 +19,13 @@ from time import perf_counter
 def main(argv: list[str]) -> int:
     scene, seconds, record_path = argv
     started = perf_counter()
-    from thesis_rbd.cli import app
+    from thesis_rbd.cli import main as command_line
     from thesis_rbd.compile_log import CompileLog
 
     imported = perf_counter() - started
     with CompileLog() as log:
         try:
-            app(["run", scene, "--seconds", seconds, "--quiet"], prog_name="thesis-rbd")
+            command_line(["run", scene, "--seconds", seconds, "--quiet"])
         except SystemExit as finished:
             status = finished.code or 0
         else:
