@@ -9,9 +9,12 @@ then resolves each island with a stepped-back body in two phases:
 1. at the time of impact, the collision: Poisson's compression (no approach, with friction)
    and restitution, e times the compression impulse, for contacts approaching faster than
    their bounce threshold; no force acts during the instant of the collision, so a ball
-   leaves the floor at exactly e times its impact speed. Collisions are rare and their
-   answer decides where the bodies fly, so PGS must meet a millionth of the impact speed,
-   and a small island it cannot bring there is solved exactly;
+   leaves the floor at exactly e times its impact speed. Where a contact of the island
+   bounces, the answer decides how high and where the bodies fly, so PGS must meet a
+   millionth of the impact speed, and a small island it cannot bring there is solved
+   exactly. Where nothing bounces (e = 0, or every approach below its bounce threshold),
+   the collision only stops the approach, and the resting-contact tolerance is the one to
+   meet: the second phase then holds the bodies to that tolerance anyway;
 2. the rest of the step, t: the velocities the forces would give over t, and a resting-contact
    solve on them, as the contact stage does at the start of every step. A body that the second
    solve pushed (it came to rest, e = 0) moves with its new velocity; one it did not (it
@@ -45,7 +48,7 @@ from thesis_rbd.dynamics.pgs import build_rows
 
 __all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
 
-# PGS velocity tolerance of a collision, relative to the island's fastest approach.
+# PGS velocity tolerance of a collision with a rebound, relative to the fastest approach.
 IMPACT_TOLERANCE = 1e-6
 
 
@@ -200,8 +203,16 @@ def resolve_impacts(
         # collision
         bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
         mu[k] = math.sqrt(friction[a] * friction[b])
-    for k in range(kept):
-        tolerance[k] = IMPACT_TOLERANCE * fastest
+    for isl in range(sub_start.shape[0] - 1):
+        s, e = sub_start[isl], sub_start[isl + 1]
+        rebound = False
+        for k in range(s, e):
+            rebound |= bounce[k] > 0.0
+        for k in range(s, e):
+            if rebound:
+                tolerance[k] = IMPACT_TOLERANCE * fastest
+            else:
+                tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
