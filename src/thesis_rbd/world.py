@@ -578,8 +578,8 @@ class World(WorldSteadySteps, WorldReadout):
         n = b.count
         movers = ~(self._frozen | self._solved[:n])
         hits, v, w = find_hits(
-            n, self._frozen, movers, c["body_a"], c["body_b"], c["points"], c["normals"],
-            c["depths"], *self._state, *self._constants[:2],
+            n, self._frozen, movers, c.ints, c.floats, c.count, *self._state,
+            *self._constants[:2],
         )  # fmt: skip
         if not hits.any():
             return
@@ -600,10 +600,9 @@ class World(WorldSteadySteps, WorldReadout):
         b, c, pf = self.bodies, self._contacts, self._point_forces
         impulses = np.zeros((c.count, 3))
         stats, resolved = resolve_impacts(
-            self._settings, self._polygon, b.count, self._frozen, self._rewind,
-            c["body_a"], c["body_b"], c["points"], c["normals"], c["depths"],
-            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
-            pf.arm, pf.force, impulses,
+            self._settings, self._polygon, b.count, self._frozen, self._rewind, c.ints,
+            c.floats, c.count, *self._state, *self._constants, self._external_force,
+            self._drag_array, pf.start, pf.arm, pf.force, impulses,
         )  # fmt: skip
         if stats[5] >= 0:
             raise _StepFailed(int(stats[5]))

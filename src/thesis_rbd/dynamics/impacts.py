@@ -31,6 +31,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd.collision.contact_set import contact_views
 from thesis_rbd.collision.time_of_impact import move_ballistic
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import (
@@ -64,15 +65,22 @@ def any_free_body(contact_ints, count, frozen, solved):
 
 
 @njit
-def find_hits(count, static, movers, body_a, body_b, points, normals, depths, position,
+def find_hits(count, static, movers, contact_ints, contact_floats, contact_count, position,
               orientation, linear_momentum, angular_momentum, inverse_mass,
               inverse_inertia_body):  # fmt: skip
     """Contacts a body in free flight ran into during the step: it penetrates (depth > 0)
     and approaches.
 
+    The contacts come packed (``contact_ints``, ``contact_floats``, ``contact_count`` of a
+    ``ContactSet``), as the contact stage takes them: the fields are then sliced here, and
+    the kernels both stages call are compiled for one kind of array.
+
     Returns ``hits`` (c,) bool and the body velocities v, w (n, 3) at the end of the step.
     """
-    c = body_a.shape[0]
+    body_a, body_b, points, normals, depths, _, _ = contact_views(
+        contact_ints, contact_floats, contact_count
+    )
+    c = contact_count
     v, w, _ = body_velocities(
         count, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body,
@@ -94,7 +102,7 @@ def find_hits(count, static, movers, body_a, body_b, points, normals, depths, po
 
 @njit
 def resolve_impacts(
-    settings, polygon, count, static, rewind, body_a, body_b, points, normals, depths,
+    settings, polygon, count, static, rewind, contact_ints, contact_floats, contact_count,
     position, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force, impulse,
@@ -107,8 +115,8 @@ def resolve_impacts(
         As ``resting_contact.solve_contacts``.
     rewind : (>= n,) float64
         How far each body was stepped back (0: not).
-    body_a ... depths
-        The contact set after the time-of-impact stage (c rows).
+    contact_ints, contact_floats, contact_count
+        The contact set after the time-of-impact stage (c rows), packed as a ``ContactSet``.
     position ... friction
         Body state and constants; state of the islands' bodies updated in place.
     external_force, drag, pf_start, pf_arm, pf_force
@@ -123,9 +131,12 @@ def resolve_impacts(
     resolved : (c,) bool
         The contacts of the resolved islands.
     """
+    body_a, body_b, points, normals, depths, _, _ = contact_views(
+        contact_ints, contact_floats, contact_count
+    )
     dt = settings[cs.DT]
     n = count
-    c = body_a.shape[0]
+    c = contact_count
     stats = np.zeros(6, np.int64)
     stats[5] = -1
     body_island, order, island_start = find_islands(n, body_a, body_b, static)
