@@ -41,7 +41,7 @@ def reference_pgs(sweeps, sides, contacts, bias, friction, bodies, impulse):
         return (
             e @ (velocity[a] - velocity[b])
             + ang_a @ angular_velocity[a]
-            - ang_b @ (angular_velocity[b])
+            - ang_b @ angular_velocity[b]
         )
 
     def apply(k, d, j):

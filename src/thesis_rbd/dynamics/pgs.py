@@ -194,7 +194,8 @@ def _row_velocity(k, d, basis, angular_a, angular_b, dv0, dv1, dv2, wa0, wa1, wa
 
 @njit(allocates=False)
 def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, velocity, w):
-    """Impulse j along e_d of contact k: +j on body a at its arm, -j on body b."""
+    """Impulse j along e_d of contact k: +j on body a at its arm, -j on body b (the warm
+    start, applied row by row before the sweeps)."""
     ma, mb = inverse_mass[a] * j, inverse_mass[b] * j
     for i in range(3):
         velocity[a, i] += ma * basis[k, d, i]
@@ -204,7 +205,7 @@ def _apply_row(k, d, a, b, j, basis, response_a, response_b, inverse_mass, veloc
 
 
 @njit(allocates=False)
-def _apply_impulse(k, a, b, dn, d1, d2, basis, response_a, response_b, inverse_mass, v, w):
+def _apply_three_rows(k, a, b, dn, d1, d2, basis, response_a, response_b, inverse_mass, v, w):
     """Impulses dn, d1, d2 along n, t1, t2 of contact k, in one update of both bodies."""
     ma, mb = inverse_mass[a], inverse_mass[b]
     for i in range(3):
@@ -286,7 +287,7 @@ def sweep_island(
                 impulse[k, 1], impulse[k, 2] = t1, t2
                 converged &= max(abs(d1), abs(d2)) <= tolerance[k] * h
             if dn != 0.0 or d1 != 0.0 or d2 != 0.0:
-                _apply_impulse(
+                _apply_three_rows(
                     k, a, b, dn, d1, d2, basis, response_a, response_b, inverse_mass, velocity, w
                 )
         if converged:
