@@ -11,6 +11,7 @@ import thesis_rbd as rbd
 from tests.reference_convex import least_penetration
 from tests.test_convex_contacts import Pair, face_pairs, pairs
 from thesis_rbd.collision.convex_box import box_box_query
+from thesis_rbd.collision.convex_contacts import SPECULATIVE_FRACTION
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.convex_sat import (
     EDGES,
@@ -109,6 +110,19 @@ def _contacts_of(pair, find_boxes):
     return general.contacts()[0]
 
 
+def _thicknesses(pair):
+    hulls = HullSet()
+    index = [hulls.hull_of(mesh) for mesh in pair.meshes]
+    return hulls.thicknesses[index]
+
+
+def _levelled(depths, level, rounding):
+    """Sorted depths, those that lie ``level`` below the deepest to ``rounding`` raised to it."""
+    deepest = depths.max()
+    above = deepest - depths
+    return np.sort(np.where(np.abs(above - level) <= rounding, deepest, depths))
+
+
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(face_pairs(), pairs(kinds=st.just("box"))))
 def test_box_contacts_equal_the_general_path(pair):
@@ -122,8 +136,13 @@ def test_box_contacts_equal_the_general_path(pair):
     if not len(fast["depths"]):
         return
     size = pair.size
+    # A corner within a thousandth of the thinner body of the deepest carries the pair's
+    # depth; one that lies that far above it to round-off may go either way on either path
+    level = SPECULATIVE_FRACTION * min(_thicknesses(pair))
     np.testing.assert_allclose(
-        np.sort(fast["depths"]), np.sort(general["depths"]), atol=1e-9 * size
+        _levelled(fast["depths"], level, 1e-9 * size),
+        _levelled(general["depths"], level, 1e-9 * size),
+        atol=1e-9 * size,
     )
     # where the least-penetration axis is tied (a box centred on the other along it: either
     # face is as deep), the two paths may take either; elsewhere the same axis and corners
