@@ -23,62 +23,69 @@ def nearest_in_polygon(point, radius, sides):
     return candidates[np.argmin(np.linalg.norm(candidates - point, axis=1))]
 
 
+class ContactRows:
+    """The rows of an island's contacts from their Jacobians: row velocities, impulses
+    applied to the bodies (in place), and each contact's 3 x 3 block of J M^-1 J^T."""
+
+    def __init__(self, contacts, bodies):
+        self.body_a, self.body_b, self.arm_a, self.arm_b, self.basis = contacts
+        self.velocity, self.angular_velocity, self.inverse_mass, self.inverse_inertia = bodies
+
+    def jacobian(self, k, d):
+        e = self.basis[k, d]
+        return e, np.cross(self.arm_a[k], e), np.cross(self.arm_b[k], e)
+
+    def row_velocity(self, k, d):
+        e, ang_a, ang_b = self.jacobian(k, d)
+        a, b = self.body_a[k], self.body_b[k]
+        return (
+            e @ (self.velocity[a] - self.velocity[b])
+            + ang_a @ self.angular_velocity[a]
+            - ang_b @ self.angular_velocity[b]
+        )
+
+    def apply(self, k, d, j):
+        e, ang_a, ang_b = self.jacobian(k, d)
+        a, b = self.body_a[k], self.body_b[k]
+        self.velocity[a] += self.inverse_mass[a] * j * e
+        self.velocity[b] -= self.inverse_mass[b] * j * e
+        self.angular_velocity[a] += j * self.inverse_inertia[a] @ ang_a
+        self.angular_velocity[b] -= j * self.inverse_inertia[b] @ ang_b
+
+    def delassus(self, k):
+        K = np.empty((3, 3))
+        a, b = self.body_a[k], self.body_b[k]
+        ii = self.inverse_inertia
+        for d in range(3):
+            e, ang_a, ang_b = self.jacobian(k, d)
+            for f in range(3):
+                g, gang_a, gang_b = self.jacobian(k, f)
+                K[d, f] = (self.inverse_mass[a] + self.inverse_mass[b]) * e @ g
+                K[d, f] += ang_a @ ii[a] @ gang_a + ang_b @ ii[b] @ gang_b
+        return K
+
+
 def reference_pgs(sweeps, sides, contacts, bias, friction, bodies, impulse):
     """``sweeps`` sweeps of PGS in place: the warm start ``impulse`` (c, 3) is applied, then
     each contact's normal row is solved exactly and its tangent rows take the isotropic step
     h = 1 / lambda_max(K_tt) followed by the projection onto the friction polygon."""
-    body_a, body_b, arm_a, arm_b, basis = contacts
-    velocity, angular_velocity, inverse_mass, inverse_inertia = bodies
-    c = len(body_a)
-
-    def jacobian(k, d):
-        e = basis[k, d]
-        return e, np.cross(arm_a[k], e), np.cross(arm_b[k], e)
-
-    def row_velocity(k, d):
-        e, ang_a, ang_b = jacobian(k, d)
-        a, b = body_a[k], body_b[k]
-        return (
-            e @ (velocity[a] - velocity[b])
-            + ang_a @ angular_velocity[a]
-            - ang_b @ angular_velocity[b]
-        )
-
-    def apply(k, d, j):
-        e, ang_a, ang_b = jacobian(k, d)
-        a, b = body_a[k], body_b[k]
-        velocity[a] += inverse_mass[a] * j * e
-        velocity[b] -= inverse_mass[b] * j * e
-        angular_velocity[a] += j * inverse_inertia[a] @ ang_a
-        angular_velocity[b] -= j * inverse_inertia[b] @ ang_b
-
-    def delassus(k):
-        K = np.empty((3, 3))
+    rows = ContactRows(contacts, bodies)
+    for k in range(len(bias)):
         for d in range(3):
-            e, ang_a, ang_b = jacobian(k, d)
-            for f in range(3):
-                g, gang_a, gang_b = jacobian(k, f)
-                a, b = body_a[k], body_b[k]
-                K[d, f] = (inverse_mass[a] + inverse_mass[b]) * e @ g
-                K[d, f] += ang_a @ inverse_inertia[a] @ gang_a + ang_b @ inverse_inertia[b] @ gang_b
-        return K
-
-    for k in range(c):
-        for d in range(3):
-            apply(k, d, impulse[k, d])
+            rows.apply(k, d, impulse[k, d])
     for _ in range(sweeps):
-        for k in range(c):
-            K = delassus(k)
+        for k in range(len(bias)):
+            K = rows.delassus(k)
             if K[0, 0] <= 0.0:
                 continue
-            new_n = max(impulse[k, 0] - (row_velocity(k, 0) + bias[k]) / K[0, 0], 0.0)
-            apply(k, 0, new_n - impulse[k, 0])
+            new_n = max(impulse[k, 0] - (rows.row_velocity(k, 0) + bias[k]) / K[0, 0], 0.0)
+            rows.apply(k, 0, new_n - impulse[k, 0])
             impulse[k, 0] = new_n
             if friction[k] <= 0.0:
                 continue
             h = 1.0 / np.linalg.eigvalsh(K[1:, 1:]).max()
-            u_t = np.array([row_velocity(k, 1), row_velocity(k, 2)])
+            u_t = np.array([rows.row_velocity(k, 1), rows.row_velocity(k, 2)])
             t = nearest_in_polygon(impulse[k, 1:] - h * u_t, friction[k] * new_n, sides)
             for d in (1, 2):
-                apply(k, d, t[d - 1] - impulse[k, d])
+                rows.apply(k, d, t[d - 1] - impulse[k, d])
             impulse[k, 1:] = t

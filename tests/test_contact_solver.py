@@ -5,14 +5,22 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from tests.reference_pgs import nearest_in_polygon, reference_pgs
+from tests.reference_pgs import ContactRows, nearest_in_polygon, reference_pgs
+from tests.reference_subspace import reference_subspace_step
 from thesis_rbd.dynamics.contact_solver import (
     contact_basis,
     relative_velocity,
     solve_exact,
     solve_pgs,
 )
-from thesis_rbd.dynamics.pgs import friction_polygon, project_onto_polygon
+from thesis_rbd.dynamics.island_solver import sweep_with_subspace_steps
+from thesis_rbd.dynamics.pgs import (
+    apply_warm_start,
+    build_rows,
+    friction_polygon,
+    project_onto_polygon,
+)
+from thesis_rbd.dynamics.subspace import subspace_step
 
 SOLVERS = ["exact", "pgs"]
 
@@ -243,6 +251,92 @@ def test_pgs_sweeps_agree_with_a_row_by_row_reference(seed, count, sweeps, warm)
     np.testing.assert_allclose(ours, reference, rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-9 * (1 + np.abs(v_ref).max()))
     np.testing.assert_allclose(w, w_ref, rtol=0, atol=1e-9 * (1 + np.abs(w_ref).max()))
+
+
+def random_warm_start(seed, friction):
+    """Impulses with some normals zero, some friction inside its cone and some on it."""
+    rng = np.random.default_rng(seed + 1)
+    count = len(friction)
+    start = np.zeros((count, 3))
+    start[:, 0] = rng.uniform(0, 1, count) * (rng.uniform(size=count) < 0.8)
+    turn = rng.uniform(0, 2 * np.pi, count)
+    reach = rng.choice([0.3, 0.95, 1.0], count) * friction * start[:, 0]
+    start[:, 1] = reach * np.cos(turn)
+    start[:, 2] = reach * np.sin(turn)
+    return start
+
+
+def pgs_arrays(contacts, im, ii):
+    body_a, body_b, arm_a, arm_b, basis = contacts
+    return build_rows(body_a, body_b, arm_a, arm_b, basis, im, ii)
+
+
+@given(st.integers(0, 10**6), st.integers(1, 6), st.integers(1, 8))
+def test_subspace_step_agrees_with_a_dense_reference(seed, count, iterations):
+    """The kernel's matrix-free conjugate gradients on the active rows against the same
+    iteration on the dense matrix of those rows, and the same projection."""
+    contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    start = random_warm_start(seed, friction)
+    rows = pgs_arrays(contacts, im, ii)
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, _ = rows
+    body_a, body_b, _, _, basis = contacts
+    ours, v_ref, w_ref, reference = start.copy(), v.copy(), w.copy(), start.copy()
+    apply_warm_start(0, count, body_a, body_b, basis, response_a, response_b, im, v, w, ours)
+    bodies_ref = (v_ref, w_ref, im, ii)
+    for k in range(count):
+        for d in range(3):
+            ContactRows(contacts, bodies_ref).apply(k, d, start[k, d])
+    scratch = [np.empty((count, 3)) for _ in range(5)] + [np.empty_like(v), np.empty_like(w)]
+    subspace_step(
+        0, count, iterations, friction_polygon(8), body_a, body_b, basis, angular_a, angular_b,
+        response_a, response_b, normal_step, tangent_step, im, bias, friction, v, w, ours,
+        *scratch,
+    )  # fmt: skip
+    reference_subspace_step(iterations, 8, contacts, bias, friction, bodies_ref, reference)
+    scale = 1 + np.abs(reference).max()
+    np.testing.assert_allclose(ours, reference, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-8 * (1 + np.abs(v_ref).max()))
+    np.testing.assert_allclose(w, w_ref, rtol=0, atol=1e-8 * (1 + np.abs(w_ref).max()))
+
+
+def solve_with_subspace_steps(contacts, bias, friction, v, w, im, ii, tolerance):
+    """``sweep_with_subspace_steps`` on the whole problem, from no warm start."""
+    count = len(bias)
+    body_a, body_b, _, _, basis = contacts
+    impulse = np.zeros((count, 3))
+    scratch = tuple(np.empty((count, 3)) for _ in range(5)) + (np.empty_like(v), np.empty_like(w))
+    _, converged = sweep_with_subspace_steps(
+        0, count, 20000, np.full(count, tolerance), friction_polygon(8), body_a, body_b, basis,
+        pgs_arrays(contacts, im, ii), im, bias, friction, v, w, impulse, scratch,
+    )  # fmt: skip
+    return impulse, converged
+
+
+@given(st.integers(0, 10**6), st.integers(1, 5))
+def test_subspace_steps_converge_to_the_exact_velocities_without_friction(seed, count):
+    """Sweeps with conjugate-gradient steps between them reach Lemke's unique velocities."""
+    contacts, bias, _, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    frictionless = np.zeros(count)
+    v_ours, w_ours = v.copy(), w.copy()
+    _, status = solve("exact", contacts, bias, frictionless, v, w, im, ii)
+    assume(status == 0)
+    solve_with_subspace_steps(contacts, bias, frictionless, v_ours, w_ours, im, ii, 0.0)
+    np.testing.assert_allclose(v_ours, v, atol=1e-5 * (1 + np.abs(v).max()))
+    np.testing.assert_allclose(w_ours, w, atol=1e-5 * (1 + np.abs(w).max()))
+
+
+@given(st.integers(0, 10**6), st.integers(1, 5))
+def test_subspace_steps_meet_the_contact_conditions_with_friction(seed, count):
+    contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    impulse, converged = solve_with_subspace_steps(contacts, bias, friction, v, w, im, ii, 1e-12)
+    assume(converged)
+    bodies = (v, w, im, ii)
+    scale = 1 + np.abs(impulse).max()
+    for k in range(count):
+        u_n = relative_velocity(k, 0, contacts, bodies) + bias[k]
+        assert u_n >= -1e-8 and impulse[k, 0] >= 0.0
+        assert abs(u_n * impulse[k, 0]) <= 1e-8 * scale
+        assert np.hypot(impulse[k, 1], impulse[k, 2]) <= friction[k] * impulse[k, 0] * (1 + 1e-12)
 
 
 def test_exact_solver_rarely_falls_back():

@@ -43,7 +43,14 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 
-__all__ = ["build_rows", "friction_polygon", "project_onto_polygon", "sweep_island"]
+__all__ = [
+    "apply_warm_start",
+    "build_rows",
+    "friction_polygon",
+    "project_onto_polygon",
+    "run_sweeps",
+    "sweep_island",
+]
 
 
 @njit
@@ -217,6 +224,22 @@ def _apply_three_rows(k, a, b, dn, d1, d2, basis, response_a, response_b, invers
 
 
 @njit(allocates=False)
+def apply_warm_start(
+    start, stop, body_a, body_b, basis, response_a, response_b, inverse_mass, velocity,
+    angular_velocity, impulse,
+):  # fmt: skip
+    """Apply the impulses ``impulse[start:stop]`` (the warm start) to the body velocities."""
+    for k in range(start, stop):
+        a, b = body_a[k], body_b[k]
+        for d in range(3):
+            if impulse[k, d] != 0.0:
+                _apply_row(
+                    k, d, a, b, impulse[k, d], basis, response_a, response_b, inverse_mass,
+                    velocity, angular_velocity,
+                )  # fmt: skip
+
+
+@njit(allocates=False)
 def sweep_island(
     start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a, angular_b,
     response_a, response_b, normal_step, tangent_step, coupling, inverse_mass, bias, friction,
@@ -224,12 +247,9 @@ def sweep_island(
 ):  # fmt: skip
     """Projected Gauss-Seidel on contacts ``start:stop``, warm started from ``impulse``.
 
-    The warm-start impulses are applied first, then sweeps run until converged. Body
-    velocities and ``impulse`` (c, 3) (lambda_n, lambda_t1, lambda_t2) are updated in place.
-    The normal condition is u_n + bias >= 0 (a positive bias allows that much approach, a
-    negative one demands separation). The rows are ``build_rows``'s.
-
-    ``tolerance`` (c,) is each contact's velocity tolerance (m/s).
+    The warm-start impulses are applied first (:func:`apply_warm_start`), then
+    :func:`run_sweeps`. Body velocities and ``impulse`` (c, 3) (lambda_n, lambda_t1,
+    lambda_t2) are updated in place.
 
     Returns
     -------
@@ -238,15 +258,32 @@ def sweep_island(
     converged : bool
         Whether the last sweep changed no contact velocity by more than its tolerance.
     """
+    apply_warm_start(
+        start, stop, body_a, body_b, basis, response_a, response_b, inverse_mass, velocity,
+        angular_velocity, impulse,
+    )  # fmt: skip
+    return run_sweeps(
+        start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
+        angular_b, response_a, response_b, normal_step, tangent_step, coupling, inverse_mass,
+        bias, friction, velocity, angular_velocity, impulse,
+    )  # fmt: skip
+
+
+@njit(allocates=False)
+def run_sweeps(
+    start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a, angular_b,
+    response_a, response_b, normal_step, tangent_step, coupling, inverse_mass, bias, friction,
+    velocity, angular_velocity, impulse,
+):  # fmt: skip
+    """Up to ``iterations`` projected Gauss-Seidel sweeps over contacts ``start:stop``, from
+    the impulses ``impulse`` already applied to the velocities; stops once converged.
+
+    The normal condition is u_n + bias >= 0 (a positive bias allows that much approach, a
+    negative one demands separation). The rows are ``build_rows``'s. ``tolerance`` (c,) is
+    each contact's velocity tolerance (m/s). Returns (sweeps run, converged) as
+    :func:`sweep_island`.
+    """
     w = angular_velocity
-    for k in range(start, stop):
-        a, b = body_a[k], body_b[k]
-        for d in range(3):
-            if impulse[k, d] != 0.0:
-                _apply_row(
-                    k, d, a, b, impulse[k, d], basis, response_a, response_b, inverse_mass,
-                    velocity, w,
-                )  # fmt: skip
     for sweep in range(iterations):
         converged = True
         for k in range(start, stop):
