@@ -33,8 +33,9 @@ def reference_subspace_step(iterations, sides, contacts, bias, friction, bodies,
         preconditioner[3 * k] = 1.0 / K[0, 0] if active[3 * k] else 0.0
         if active[3 * k + 1]:
             preconditioner[3 * k + 1 : 3 * k + 3] = 1.0 / np.linalg.eigvalsh(K[1:, 1:]).max()
-    residual = np.where(active, -(u + np.repeat(bias, 3) * np.tile([1.0, 0.0, 0.0], c)), 0.0)
-    residual[~active] = 0.0
+    target = u.copy()
+    target[0::3] += np.where(np.isfinite(bias), bias, 0.0)  # the bias acts on the normal rows
+    residual = np.where(active, -target, 0.0)
     x = np.zeros(3 * c)
     z = preconditioner * residual
     direction = z.copy()

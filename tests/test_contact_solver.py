@@ -13,14 +13,13 @@ from thesis_rbd.dynamics.contact_solver import (
     solve_exact,
     solve_pgs,
 )
-from thesis_rbd.dynamics.island_solver import sweep_with_subspace_steps
 from thesis_rbd.dynamics.pgs import (
     apply_warm_start,
     build_rows,
     friction_polygon,
     project_onto_polygon,
 )
-from thesis_rbd.dynamics.subspace import subspace_step
+from thesis_rbd.dynamics.subspace import subspace_step, sweep_with_subspace_steps
 
 SOLVERS = ["exact", "pgs"]
 
@@ -283,9 +282,10 @@ def test_subspace_step_agrees_with_a_dense_reference(seed, count, iterations):
     ours, v_ref, w_ref, reference = start.copy(), v.copy(), w.copy(), start.copy()
     apply_warm_start(0, count, body_a, body_b, basis, response_a, response_b, im, v, w, ours)
     bodies_ref = (v_ref, w_ref, im, ii)
+    reference_rows = ContactRows(contacts, bodies_ref)
     for k in range(count):
         for d in range(3):
-            ContactRows(contacts, bodies_ref).apply(k, d, start[k, d])
+            reference_rows.apply(k, d, start[k, d])
     scratch = [np.empty((count, 3)) for _ in range(5)] + [np.empty_like(v), np.empty_like(w)]
     subspace_step(
         0, count, iterations, friction_polygon(8), body_a, body_b, basis, angular_a, angular_b,
@@ -304,10 +304,9 @@ def solve_with_subspace_steps(contacts, bias, friction, v, w, im, ii, tolerance)
     count = len(bias)
     body_a, body_b, _, _, basis = contacts
     impulse = np.zeros((count, 3))
-    scratch = tuple(np.empty((count, 3)) for _ in range(5)) + (np.empty_like(v), np.empty_like(w))
     _, converged = sweep_with_subspace_steps(
         0, count, 20000, np.full(count, tolerance), friction_polygon(8), body_a, body_b, basis,
-        pgs_arrays(contacts, im, ii), im, bias, friction, v, w, impulse, scratch,
+        pgs_arrays(contacts, im, ii), im, bias, friction, v, w, impulse,
     )  # fmt: skip
     return impulse, converged
 

@@ -28,20 +28,11 @@ import numpy as np
 from thesis_rbd._jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_solver import solve_exact
-from thesis_rbd.dynamics.pgs import apply_warm_start, run_sweeps, sweep_island
-from thesis_rbd.dynamics.subspace import subspace_step
+from thesis_rbd.dynamics.pgs import sweep_island
+from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
 
-__all__ = ["correct_positions", "solve_islands", "sweep_with_subspace_steps"]
-
-# Islands of at least this many contacts get conjugate-gradient steps on their active rows
-# (:mod:`.subspace`) after every ``SUBSPACE_EVERY`` sweeps, ``SUBSPACE_ITERATIONS`` steps each.
-# On the resting-contact stages of three pours of 256 cubes (the same inputs solved each way)
-# any of 12-24 sweeps and 6-10 steps took about a fifth less time than sweeps alone; more
-# steps at a time cost more, as the projection of a long step undoes much of it.
-SUBSPACE_CONTACTS = 64
-SUBSPACE_EVERY = 16
-SUBSPACE_ITERATIONS = 8
+__all__ = ["correct_positions", "solve_islands"]
 
 
 @njit
@@ -83,30 +74,21 @@ def solve_islands(
     sides = polygon.shape[0] - 1
     v_start = v.copy()
     w_start = w.copy()
-    largest = 0
-    for isl in range(island_start.shape[0] - 1):
-        largest = max(largest, island_start[isl + 1] - island_start[isl])
-    c = body_a.shape[0] if largest >= SUBSPACE_CONTACTS else 0
-    n = v.shape[0] if largest >= SUBSPACE_CONTACTS else 0
-    scratch = (
-        np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3)),
-        np.empty((c, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
-    )  # fmt: skip
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
         exact = solver == 2
-        if not exact and e - s >= SUBSPACE_CONTACTS:
-            sweeps, converged = sweep_with_subspace_steps(
-                s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
-                inverse_mass, bias, friction, v, w, impulse, scratch,
-            )  # fmt: skip
-        elif not exact:
-            sweeps, converged = sweep_island(
-                s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
-                angular_b, response_a, response_b, normal_step, tangent_step, coupling,
-                inverse_mass, bias, friction, v, w, impulse,
-            )  # fmt: skip
         if not exact:
+            if e - s >= SUBSPACE_CONTACTS:
+                sweeps, converged = sweep_with_subspace_steps(
+                    s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
+                    inverse_mass, bias, friction, v, w, impulse,
+                )  # fmt: skip
+            else:
+                sweeps, converged = sweep_island(
+                    s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
+                    angular_b, response_a, response_b, normal_step, tangent_step, coupling,
+                    inverse_mass, bias, friction, v, w, impulse,
+                )  # fmt: skip
             stats[1] += sweeps
             stats[2] = max(stats[2], sweeps)
             if not converged:
@@ -152,35 +134,6 @@ def solve_islands(
                 w[a, i] += extra * response_a[k, 0, i]
                 w[b, i] -= extra * response_b[k, 0, i]
             impulse[k, 0] += extra
-
-
-@njit
-def sweep_with_subspace_steps(
-    s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows, inverse_mass, bias,
-    friction, v, w, impulse, scratch,
-):  # fmt: skip
-    """``sweep_island`` with conjugate-gradient steps on the active rows between every
-    ``SUBSPACE_EVERY`` sweeps: (sweeps, converged)."""
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
-    free, step, residual, direction, product, delta_v, delta_w = scratch
-    apply_warm_start(
-        s, e, body_a, body_b, basis, response_a, response_b, inverse_mass, v, w, impulse
-    )
-    sweeps = 0
-    while True:
-        done, converged = run_sweeps(
-            s, e, min(SUBSPACE_EVERY, iterations - sweeps), tolerance, polygon, body_a,
-            body_b, basis, angular_a, angular_b, response_a, response_b, normal_step,
-            tangent_step, coupling, inverse_mass, bias, friction, v, w, impulse,
-        )  # fmt: skip
-        sweeps += done
-        if converged or sweeps >= iterations:
-            return sweeps, converged
-        subspace_step(
-            s, e, SUBSPACE_ITERATIONS, polygon, body_a, body_b, basis, angular_a, angular_b,
-            response_a, response_b, normal_step, tangent_step, inverse_mass, bias, friction, v, w,
-            impulse, free, step, residual, direction, product, delta_v, delta_w,
-        )  # fmt: skip
 
 
 @njit

@@ -14,18 +14,36 @@ impulse that leaves its cone): the step's answer is projected onto the feasible 
 it is applied.
 
 Arrays: the contact rows of :func:`.pgs.build_rows` (c contacts), ``velocity`` and
-``angular_velocity`` (n, 3), ``impulse`` (c, 3); scratch ``scale``, ``step``, ``residual``,
-``direction``, ``product`` (c, 3) and ``delta_v``, ``delta_w`` (n, 3), contents ignored.
+``angular_velocity`` (n, 3), ``impulse`` (c, 3); :func:`subspace_step`'s scratch ``scale``,
+``step``, ``residual``, ``direction``, ``product`` (c, 3) and ``delta_v``, ``delta_w`` (n, 3),
+contents ignored.
 """
 
 from __future__ import annotations
 
 import math
 
-from thesis_rbd._jit import njit
-from thesis_rbd.dynamics.pgs import _apply_three_rows, _row_velocity, project_onto_polygon
+import numpy as np
 
-__all__ = ["subspace_step"]
+from thesis_rbd._jit import njit
+from thesis_rbd.dynamics.pgs import (
+    _apply_three_rows,
+    _row_velocity,
+    apply_warm_start,
+    project_onto_polygon,
+    run_sweeps,
+)
+
+__all__ = ["SUBSPACE_CONTACTS", "subspace_step", "sweep_with_subspace_steps"]
+
+# Islands of at least this many contacts get conjugate-gradient steps on their active rows
+# after every ``SUBSPACE_EVERY`` sweeps, ``SUBSPACE_ITERATIONS`` steps each. On the
+# resting-contact stages of three pours of 256 cubes (the same inputs solved each way) any of
+# 12-24 sweeps and 6-10 steps took about a fifth less time than sweeps alone; more steps at a
+# time cost more, as the projection of a long step undoes much of it.
+SUBSPACE_CONTACTS = 64
+SUBSPACE_EVERY = 16
+SUBSPACE_ITERATIONS = 8
 
 
 @njit(allocates=False)
@@ -133,4 +151,37 @@ def subspace_step(
         _apply_three_rows(
             k, body_a[k], body_b[k], new_n - old_n, new_1 - old_1, new_2 - old_2, basis,
             response_a, response_b, inverse_mass, velocity, w,
+        )  # fmt: skip
+
+
+@njit
+def sweep_with_subspace_steps(
+    s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows, inverse_mass, bias,
+    friction, v, w, impulse,
+):  # fmt: skip
+    """``pgs.sweep_island`` on contacts ``s:e`` (``rows`` from ``pgs.build_rows``) with
+    conjugate-gradient steps on the active rows after every ``SUBSPACE_EVERY`` sweeps:
+    (sweeps, converged)."""
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
+    c, n = body_a.shape[0], v.shape[0]
+    scale, step, residual = np.empty((c, 3)), np.empty((c, 3)), np.empty((c, 3))
+    direction, product = np.empty((c, 3)), np.empty((c, 3))
+    delta_v, delta_w = np.empty((n, 3)), np.empty((n, 3))
+    apply_warm_start(
+        s, e, body_a, body_b, basis, response_a, response_b, inverse_mass, v, w, impulse
+    )
+    sweeps = 0
+    while True:
+        done, converged = run_sweeps(
+            s, e, min(SUBSPACE_EVERY, iterations - sweeps), tolerance, polygon, body_a,
+            body_b, basis, angular_a, angular_b, response_a, response_b, normal_step,
+            tangent_step, coupling, inverse_mass, bias, friction, v, w, impulse,
+        )  # fmt: skip
+        sweeps += done
+        if converged or sweeps >= iterations:
+            return sweeps, converged
+        subspace_step(
+            s, e, SUBSPACE_ITERATIONS, polygon, body_a, body_b, basis, angular_a, angular_b,
+            response_a, response_b, normal_step, tangent_step, inverse_mass, bias, friction, v, w,
+            impulse, scale, step, residual, direction, product, delta_v, delta_w,
         )  # fmt: skip
