@@ -4,13 +4,19 @@ the active rows, built column by column from unit impulses with NumPy."""
 import numpy as np
 
 from tests.reference_pgs import ContactRows, nearest_in_polygon
+from thesis_rbd.dynamics.subspace import SUBSPACE_FLAT_CURVATURE
 
 
-def reference_subspace_step(iterations, sides, contacts, bias, friction, bodies, impulse):
+def reference_subspace_step(
+    iterations, sides, contacts, bias, friction, bodies, impulse, symmetrise=False
+):
     """The step in place on ``impulse`` (c, 3), whose impulses the velocities in ``bodies``
     already hold: Jacobi-preconditioned CG on A x = r over the active rows (normal rows
     pushing with a finite bias; tangent rows of those inside the polygon's inscribed circle),
-    r = -(u + bias along the normals), then the answer projected and applied."""
+    r = -(u + bias along the normals), stopped on a direction whose curvature over its
+    length in the preconditioner's metric is below ``SUBSPACE_FLAT_CURVATURE``; then the
+    answer projected and applied. ``symmetrise`` replaces the matrix by (A + A^T) / 2, equal
+    to it but for round-off, to show how much round-off the iteration amplifies."""
     rows = ContactRows(contacts, bodies)
     c = len(bias)
     inscribed = np.cos(np.pi / sides)
@@ -27,6 +33,8 @@ def reference_subspace_step(iterations, sides, contacts, bias, friction, bodies,
         rows.apply(j // 3, j % 3, 1.0)
         A[:, j] = [rows.row_velocity(k, d) for k in range(c) for d in range(3)] - u
         rows.apply(j // 3, j % 3, -1.0)
+    if symmetrise:
+        A = 0.5 * (A + A.T)
     preconditioner = np.zeros(3 * c)
     for k in range(c):
         K = rows.delassus(k)
@@ -45,7 +53,8 @@ def reference_subspace_step(iterations, sides, contacts, bias, friction, bodies,
             break
         product = np.where(active, A @ direction, 0.0)
         curvature = direction @ product
-        if not curvature > 0.0:
+        length = direction[active] ** 2 @ (1.0 / preconditioner[active])
+        if not curvature > SUBSPACE_FLAT_CURVATURE * length:
             break
         alpha = fit / curvature
         x += alpha * direction

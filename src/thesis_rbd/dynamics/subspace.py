@@ -44,6 +44,16 @@ __all__ = ["SUBSPACE_CONTACTS", "subspace_step", "sweep_with_subspace_steps"]
 SUBSPACE_CONTACTS = 64
 SUBSPACE_EVERY = 16
 SUBSPACE_ITERATIONS = 8
+# The rows of one island are often dependent: two sticking contacts between the same bodies
+# leave equal and opposite tangent impulses along the line through them without effect, and
+# four corners on a face leave a self-balanced set of normal impulses. On such a null
+# direction the bias (the normals' push-out) has no exact answer, and once CG has solved the
+# rest, its next direction lies there, with a curvature of round-off and a step without
+# bound. The steps stop when a direction's curvature, relative to its length in the
+# preconditioner's metric (the Rayleigh quotient of the preconditioned rows, whose largest
+# eigenvalues are of order one), falls below this: far below the spectrum of a stiff heap,
+# far above round-off.
+SUBSPACE_FLAT_CURVATURE = 1e-6
 
 
 @njit(allocates=False)
@@ -68,7 +78,8 @@ def subspace_step(
     rows of such contacts whose friction impulse lies inside the polygon's inscribed circle;
     their residual is -(u_n + bias) and -u_t. The preconditioner is the rows' own step sizes
     (1 / K_nn, the friction step), Gauss-Seidel's diagonal. ``scale`` holds it (0 on the
-    rows left out).
+    rows left out). The steps stop early on a direction of curvature near zero
+    (``SUBSPACE_FLAT_CURVATURE``).
     """
     w = angular_velocity
     inscribed = 0.5 * math.hypot(polygon[0, 0] + polygon[1, 0], polygon[0, 1] + polygon[1, 1])
@@ -114,6 +125,7 @@ def subspace_step(
                     basis, response_a, response_b, inverse_mass, delta_v, delta_w,
                 )  # fmt: skip
         curvature = 0.0
+        length = 0.0
         for k in range(start, stop):
             a, b = body_a[k], body_b[k]
             for d in range(3):
@@ -122,11 +134,12 @@ def subspace_step(
                         k, d, basis, angular_a, angular_b, a, b, delta_v, delta_w
                     )
                     curvature += direction[k, d] * product[k, d]
+                    length += direction[k, d] * direction[k, d] / scale[k, d]
                 else:
                     product[k, d] = 0.0
-        alpha = fit / curvature if curvature > 0.0 else 0.0
-        if not (alpha > 0.0 and math.isfinite(alpha)):
+        if not curvature > SUBSPACE_FLAT_CURVATURE * length:
             break
+        alpha = fit / curvature
         updated = 0.0
         for k in range(start, stop):
             for d in range(3):
