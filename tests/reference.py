@@ -310,9 +310,10 @@ def random_pose(seed: int, reach: float) -> np.ndarray:
 def least_penetration_reference(P, Q) -> tuple[np.ndarray, float]:
     """Normal (B -> A) and depth of the feature pair of least penetration, by enumeration.
 
-    Candidates: Q's unit normal, minus P's unit normal, and the 9 unit edge-edge directions
-    oriented to point out of Q (positive on Q's normal minus P's normal); depth along u is
-    ``max(Q.u) - min(P.u)``. Mirrors the documented definition with plain NumPy.
+    Candidates: Q's unit normal, minus P's unit normal (of a triangle that is not flat), and
+    the 9 unit edge-edge directions oriented to point out of Q (positive on Q's normal minus
+    P's normal); depth along u is ``max(Q.u) - min(P.u)``. Mirrors the documented definition
+    with plain NumPy.
     """
     P = np.asarray(P, float)
     Q = np.asarray(Q, float)
@@ -320,10 +321,16 @@ def least_penetration_reference(P, Q) -> tuple[np.ndarray, float]:
     nb = np.cross(Q[1] - Q[0], Q[2] - Q[1])
     side = np.zeros(3)
     candidates = []
-    if np.linalg.norm(nb) > 0:
+
+    def has_plane(T, n):
+        # a triangle whose height is below 1e-9 of its longest edge is a segment or point
+        longest = max(np.sum((T[(i + 1) % 3] - T[i]) ** 2) for i in range(3))
+        return n @ n > 1e-18 * longest**2
+
+    if has_plane(Q, nb):
         candidates.append(nb / np.linalg.norm(nb))
         side += candidates[-1]
-    if np.linalg.norm(na) > 0:
+    if has_plane(P, na):
         candidates.append(-na / np.linalg.norm(na))
         side += candidates[-1]
     apart = P.mean(0) - Q.mean(0)

@@ -5,26 +5,26 @@ Definition (what :func:`collide` returns in "contacts" mode)
 For every intersecting triangle pair (a of mesh A, b of mesh B):
 
 * **Points**: the end points of the pair's intersection segment. In the generic case (the
-  triangles cross, neither is degenerate) this is Möller's construction: the segment where
-  each triangle meets the other's plane, both on the line of the two planes, overlapped; each
-  end point is an edge of one mesh crossing a face of the other, or a corner lying on the
-  other's plane (touching triangles: a face resting on an edge gives that edge's part on the
-  face). Coplanar pairs (flush faces) give the corners of their overlap polygon, at most six.
-  Pairs with a degenerate (zero-area) triangle give one point: the midpoint of the closest
-  pair of features (edge-edge, corner-face, edge through face), which for touching triangles
-  lies on both. Which case applies, and which corners lie on the other's plane, is decided by
-  the exact predicates of :mod:`.predicates`, so touching and flush pairs are never taken
-  for crossing ones; the points themselves are placed in floating point and lie on both
-  triangles up to rounding.
+  triangles cross, neither is degenerate) this is Möller's construction: the segment where each
+  triangle meets the other's plane, both on the line of the two planes, overlapped; each end
+  point is an edge of one mesh crossing a face of the other, or a corner lying on the other's
+  plane (touching triangles: a face resting on an edge gives that edge's part on the face).
+  Coplanar pairs (flush faces) give the corners of their overlap polygon, at most six. Pairs
+  with a degenerate triangle (zero area, or a height below 1e-9 of its size, where its plane is
+  rounding noise) give one point: the midpoint of the closest pair of features (edge-edge,
+  corner-face, edge through face), which for touching triangles lies on both. Which case
+  applies, and which corners lie on the other's plane, is decided by the exact predicates of
+  :mod:`.predicates`, so touching and flush pairs are never taken for crossing ones; the points
+  themselves are placed in floating point and lie on both triangles up to rounding.
 * **Normal and depth**: the feature pair of least penetration, as in the thesis (5.2): the
   candidates are the face of b (vertex-face, normal = b's outward normal), the face of a
-  (normal = minus a's normal) and the 9 edge-edge directions ``e_a x e_b`` (oriented to point
-  out of b, into a); the depth along a candidate unit direction ``u`` is how far A's triangle
-  must move along ``u`` to clear B's, ``max_B(u.x) - min_A(u.x) >= 0``, and the candidate with
-  the smallest depth wins. The normal is a unit vector from B towards A (the impulse
-  ``+j n`` acts on A). For closed, outward-oriented meshes this is the vertex-face or
-  edge-edge contact of the thesis; for open or inconsistently wound meshes the face normals
-  still define the side.
+  (normal = minus a's normal), each unless its triangle is flat, and the 9 edge-edge directions
+  ``e_a x e_b`` (oriented to point out of b, into a); the depth along a candidate unit
+  direction ``u`` is how far A's triangle must move along ``u`` to clear B's,
+  ``max_B(u.x) - min_A(u.x) >= 0``, and the candidate with the smallest depth wins. The normal
+  is a unit vector from B towards A (the impulse ``+j n`` acts on A). For closed,
+  outward-oriented meshes this is the vertex-face or edge-edge contact of the thesis; for open
+  or inconsistently wound meshes the face normals still define the side.
 * The depth is *local to the triangle pair*: how deeply these two triangles interpenetrate,
   not how deep one mesh is inside the other. For the shallow penetrations of a simulation
   (less than a triangle's size) the two agree; for deep overlaps (the tori demo) it is at
@@ -101,14 +101,15 @@ def least_penetration(p0, p1, p2, q0, q1, q2):
     best_u = (0.0, 0.0, 1.0)
     # Outward side: the direction from B towards A, used to orient the edge-edge axes.
     side = (0.0, 0.0, 0.0)
-    if lb > 0.0:
+    # a flat triangle (_is_flat) has no face normal: its cross product's direction is noise
+    if lb > 0.0 and not _is_flat((q0, q1, q2), nb):
         u = scale(nb, 1.0 / lb)
         side = add(side, u)
         d = _depth_along(u, p0, p1, p2, q0, q1, q2)
         if d < best:
             best = d
             best_u = u
-    if la > 0.0:
+    if la > 0.0 and not _is_flat((p0, p1, p2), na):
         u = scale(na, -1.0 / la)
         side = add(side, u)
         d = _depth_along(u, p0, p1, p2, q0, q1, q2)
@@ -345,12 +346,17 @@ def _pair_points(p, q, ida, idb, out, spare):
 
     Crossing triangles give the two end points of their intersection segment (one if it
     is a point), coplanar ones the corners of their overlap polygon (at most 6), and pairs
-    with a flat triangle the midpoint of their closest features. Which case applies, and
-    which corners lie on the other's plane, is decided exactly.
+    with a flat triangle (zero area, or ``_is_flat``) the midpoint of their closest
+    features. Which case applies, and which corners lie on the other's plane, is decided
+    exactly.
     """
     kp, _ = _projection(p[0], p[1], p[2])
     kq, _ = _projection(q[0], q[1], q[2])
-    if kp < 0 or kq < 0:
+    na = cross(sub(p[1], p[0]), sub(p[2], p[1]))
+    nb = cross(sub(q[1], q[0]), sub(q[2], q[1]))
+    # A flat triangle's plane is rounding noise (a segment moved into the other mesh's frame
+    # is no longer exactly one): sections with it would land anywhere along that plane.
+    if kp < 0 or kq < 0 or _is_flat(p, na) or _is_flat(q, nb):
         return _one_point(_closest_features_midpoint(p, q), out)
     sp = plane_sides(q[0], q[1], q[2], p[0], p[1], p[2])
     if sp[0] == 0 and sp[1] == 0 and sp[2] == 0:
@@ -359,8 +365,6 @@ def _pair_points(p, q, ida, idb, out, spare):
             return _one_point(_closest_features_midpoint(p, q), out)
         return count
     sq = plane_sides(p[0], p[1], p[2], q[0], q[1], q[2])
-    na = cross(sub(p[1], p[0]), sub(p[2], p[1]))
-    nb = cross(sub(q[1], q[0]), sub(q[2], q[1]))
     a0, a1, ka = _plane_section(p, ida, nb, q[0], sp)
     b0, b1, kb = _plane_section(q, idb, na, p[0], sq)
     if ka == 0 or kb == 0:
