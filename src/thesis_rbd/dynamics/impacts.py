@@ -9,12 +9,12 @@ then resolves each island with a stepped-back body in two phases:
 1. at the time of impact, the collision: Poisson's compression (no approach, with friction)
    and restitution, e times the compression impulse, for contacts approaching faster than
    their bounce threshold; no force acts during the instant of the collision, so a ball
-   leaves the floor at exactly e times its impact speed. Where a contact of the island
-   bounces, the answer decides how high and where the bodies fly, so PGS must meet a
-   millionth of the impact speed, and a small island it cannot bring there is solved
-   exactly. Where nothing bounces (e = 0, or every approach below its bounce threshold),
-   the collision only stops the approach, and the resting-contact tolerance is the one to
-   meet: the second phase then holds the bodies to that tolerance anyway;
+   leaves the floor at exactly e times its impact speed. The answer decides how high and
+   where the bodies fly, so PGS must meet a millionth of the impact speed, and a small
+   island it cannot bring there is solved exactly. An island where nothing bounces (e = 0,
+   or every approach below its bounce threshold) skips this phase: its collision would only
+   stop the approach, which the second phase's solve does as well, from the same velocities
+   plus the forces' share;
 2. the rest of the step, t: the velocities the forces would give over t, and a resting-contact
    solve on them, as the contact stage does at the start of every step. A body that the second
    solve pushed (it came to rest, e = 0) moves with its new velocity; one it did not (it
@@ -220,10 +220,9 @@ def resolve_impacts(
         for k in range(s, e):
             rebound |= bounce[k] > 0.0
         for k in range(s, e):
-            if rebound:
-                tolerance[k] = IMPACT_TOLERANCE * fastest
-            else:
-                tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
+            tolerance[k] = IMPACT_TOLERANCE * fastest
+            if not rebound:
+                bias[k] = np.inf  # the collision only stops the approach: phase 2 does that
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,

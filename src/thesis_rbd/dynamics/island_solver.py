@@ -53,9 +53,9 @@ def solve_islands(
     rows : tuple
         ``pgs.build_rows`` of those contacts.
     bias, bounce, friction, tolerance : (c,) float64
-        Normal bias (u_n + bias >= 0; +inf for a contact that takes no part), restitution of
-        the contacts that bounce (0 for the others), friction coefficient, velocity tolerance
-        of PGS (m/s).
+        Normal bias (u_n + bias >= 0; +inf for a contact that takes no part, and an island
+        none of whose contacts take part is skipped), restitution of the contacts that
+        bounce (0 for the others), friction coefficient, velocity tolerance of PGS (m/s).
     inverse_mass : (n,) float64
         Zero for bodies that must not move.
     inverse_inertia : (n, 3, 3) float64
@@ -76,6 +76,11 @@ def solve_islands(
     w_start = w.copy()
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
+        taking_part = False
+        for k in range(s, e):
+            taking_part |= bias[k] != np.inf
+        if not taking_part:
+            continue
         exact = solver == 2
         if not exact:
             if e - s >= SUBSPACE_CONTACTS:
