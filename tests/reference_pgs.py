@@ -52,6 +52,12 @@ class ContactRows:
         self.angular_velocity[a] += j * self.inverse_inertia[a] @ ang_a
         self.angular_velocity[b] -= j * self.inverse_inertia[b] @ ang_b
 
+    def apply_all(self, impulse):
+        """Every contact's impulses (c, 3) along its rows: a warm start."""
+        for k in range(len(impulse)):
+            for d in range(3):
+                self.apply(k, d, impulse[k, d])
+
     def delassus(self, k):
         K = np.empty((3, 3))
         a, b = self.body_a[k], self.body_b[k]
@@ -70,9 +76,7 @@ def reference_pgs(sweeps, sides, contacts, bias, friction, bodies, impulse):
     each contact's normal row is solved exactly and its tangent rows take the isotropic step
     h = 1 / lambda_max(K_tt) followed by the projection onto the friction polygon."""
     rows = ContactRows(contacts, bodies)
-    for k in range(len(bias)):
-        for d in range(3):
-            rows.apply(k, d, impulse[k, d])
+    rows.apply_all(impulse)
     for _ in range(sweeps):
         for k in range(len(bias)):
             K = rows.delassus(k)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import assume, given
+from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from tests.reference_pgs import ContactRows, nearest_in_polygon, reference_pgs
@@ -275,10 +275,7 @@ def reference_subspace_run(seed, count, iterations, symmetrise):
     start: (impulse, velocity, angular velocity)."""
     contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
     start = random_warm_start(seed, friction)
-    rows = ContactRows(contacts, (v, w, im, ii))
-    for k in range(count):
-        for d in range(3):
-            rows.apply(k, d, start[k, d])
+    ContactRows(contacts, (v, w, im, ii)).apply_all(start)
     impulse = start.copy()
     reference_subspace_step(
         iterations, 8, contacts, bias, friction, (v, w, im, ii), impulse, symmetrise
@@ -287,6 +284,8 @@ def reference_subspace_run(seed, count, iterations, symmetrise):
 
 
 @given(st.integers(0, 10**6), st.integers(1, 6), st.integers(1, 8))
+@example(7, 4, 7)  # dependent rows: CG's last direction had round-off curvature
+@example(48926, 5, 6)  # ill-conditioned: round-off grows a thousandfold per step
 def test_subspace_step_agrees_with_a_dense_reference(seed, count, iterations):
     """The kernel's matrix-free conjugate gradients on the active rows against the same
     iteration on the dense matrix of those rows, and the same projection.
@@ -342,6 +341,7 @@ def test_subspace_steps_converge_to_the_exact_velocities_without_friction(seed, 
 
 
 @given(st.integers(0, 10**6), st.integers(1, 5))
+@example(489927, 4)  # dependent rows: an unbounded CG step once gave impulses of 4e11
 def test_subspace_steps_meet_the_contact_conditions_with_friction(seed, count):
     contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
     impulse, converged = solve_with_subspace_steps(contacts, bias, friction, v, w, im, ii, 1e-12)

@@ -354,8 +354,9 @@ def _pair_points(p, q, ida, idb, out, spare):
     kq, _ = _projection(q[0], q[1], q[2])
     na = cross(sub(p[1], p[0]), sub(p[2], p[1]))
     nb = cross(sub(q[1], q[0]), sub(q[2], q[1]))
-    # A flat triangle's plane is rounding noise (a segment moved into the other mesh's frame
-    # is no longer exactly one): sections with it would land anywhere along that plane.
+    # A flat triangle's plane is rounding noise (collinear corners, once rounded or moved
+    # into the other mesh's frame, are no longer exactly collinear): sections with it would
+    # land anywhere along that plane.
     if kp < 0 or kq < 0 or _is_flat(p, na) or _is_flat(q, nb):
         return _one_point(_closest_features_midpoint(p, q), out)
     sp = plane_sides(q[0], q[1], q[2], p[0], p[1], p[2])

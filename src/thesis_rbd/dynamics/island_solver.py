@@ -78,7 +78,9 @@ def solve_islands(
         s, e = island_start[isl], island_start[isl + 1]
         taking_part = False
         for k in range(s, e):
-            taking_part |= bias[k] != np.inf
+            if bias[k] != np.inf:
+                taking_part = True
+                break
         if not taking_part:
             continue
         exact = solver == 2
