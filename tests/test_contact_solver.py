@@ -1,5 +1,7 @@
 """Contact impulses against analytic outcomes, conservation laws and the exact LCP solution."""
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import assume, example, given
@@ -13,6 +15,7 @@ from thesis_rbd.dynamics.contact_solver import (
     solve_exact,
     solve_pgs,
 )
+from thesis_rbd.dynamics.island_solver import island_tolerances
 from thesis_rbd.dynamics.pgs import (
     apply_warm_start,
     build_rows,
@@ -411,3 +414,32 @@ def test_basis_is_orthonormal_and_right_handed():
         np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-14)
         np.testing.assert_allclose(frame[0], n)
         np.testing.assert_allclose(np.cross(frame[1], frame[2]), n, atol=1e-14)
+
+
+@given(st.integers(0, 10**6), st.integers(1, 6), st.integers(1, 30), st.booleans())
+def test_island_tolerances_follow_each_islands_fastest_contact_point(seed, islands, c, rest):
+    """Each contact's tolerance is raised to the fraction of its own island's fastest
+    contact-point speed, against a direct NumPy computation; an island at rest keeps its own."""
+    rng = np.random.default_rng(seed)
+    n = 8
+    cuts = np.sort(rng.choice(np.arange(1, c), size=min(islands - 1, c - 1), replace=False))
+    island_start = np.concatenate(([0], cuts, [c])).astype(np.int64)
+    body_a = rng.integers(0, n, c).astype(np.int64)
+    body_b = ((body_a + rng.integers(1, n, c)) % n).astype(np.int64)
+    arm_a, arm_b = rng.normal(size=(c, 3)), rng.normal(size=(c, 3))
+    v, w = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    if rest:
+        v[:], w[:] = 0.0, 0.0
+    tolerance = 10.0 ** rng.uniform(-8, 0, c)
+    relative = 10.0 ** rng.uniform(-4, -1)
+
+    got = island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, tolerance, relative)
+
+    u = v[body_a] + np.cross(w[body_a], arm_a) - v[body_b] - np.cross(w[body_b], arm_b)
+    speed = np.linalg.norm(u, axis=1)
+    expected = tolerance.copy()
+    for s, e in itertools.pairwise(island_start):
+        expected[s:e] = np.maximum(tolerance[s:e], relative * speed[s:e].max())
+    np.testing.assert_allclose(got, expected, rtol=1e-12)
+    if rest:
+        np.testing.assert_array_equal(got, tolerance)

@@ -76,7 +76,7 @@ __all__ = [
 
 # Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
 # contacts. A thousandth: far above round-off (bodies placed touching are apart by an ulp)
-# and above the contact solver's position error per step (a thousandth of the slop), the
+# and above the contact solver's position error per step at rest (a thousandth of the slop), the
 # scale of the slop within which the contact stage leaves penetration alone, so that a
 # resting contact is found on either side of touching; and small enough that few pairs
 # merely passing close by become contacts (each costs the solver a row).

@@ -43,7 +43,7 @@ from thesis_rbd.dynamics.contact_kinematics import (
 )
 from thesis_rbd.dynamics.contact_solver import contact_basis
 from thesis_rbd.dynamics.integrators import body_forces
-from thesis_rbd.dynamics.island_solver import solve_islands
+from thesis_rbd.dynamics.island_solver import island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands
 from thesis_rbd.dynamics.pgs import build_rows
 
@@ -244,9 +244,13 @@ def resolve_impacts(
         bounce[k] = 0.0
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
     rest = np.zeros((kept, 3))
+    # the rest of the step to a fraction of the motion the collision left (contact_settings)
+    relaxed = island_tolerances(
+        sub_start, sa, sb, arm_a, arm_b, v1, w1, tolerance, settings[cs.RELATIVE_TOLERANCE]
+    )
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        tolerance, movable_mass, inverse_inertia, v, w, rest, stats,
+        relaxed, movable_mass, inverse_inertia, v, w, rest, stats,
     )  # fmt: skip
 
     pushed = np.zeros(n, np.bool_)

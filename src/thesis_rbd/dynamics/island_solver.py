@@ -32,7 +32,53 @@ from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
 
-__all__ = ["correct_positions", "solve_islands"]
+__all__ = ["correct_positions", "island_tolerances", "solve_islands"]
+
+
+@njit
+def island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, tolerance, relative):
+    """Each contact's PGS tolerance, raised to a fraction of its island's fastest motion.
+
+    Parameters
+    ----------
+    island_start : (m + 1,) int64
+        Island i is the contacts ``island_start[i]:island_start[i + 1]``.
+    body_a, body_b : (c,) int64
+    arm_a, arm_b : (c, 3) float64
+        Each contact's bodies and arms from their centres of mass (world frame).
+    v, w : (n, 3) float64
+        Body velocities to measure the motion with (world frame): those before the step's
+        forces, so that a resting island, whose only motion is the g dt the forces add, keeps
+        its own tolerances.
+    tolerance : (c,) float64
+        Each contact's own velocity tolerance (m/s).
+    relative : float
+        The fraction of the island's fastest contact-point speed |u_a - u_b| allowed.
+
+    Returns
+    -------
+    (c,) float64
+        max(tolerance, relative x the island's fastest contact-point speed), a fresh array.
+    """
+    out = tolerance.copy()
+    if relative <= 0.0:
+        return out
+    for isl in range(island_start.shape[0] - 1):
+        s, e = island_start[isl], island_start[isl + 1]
+        fastest = 0.0
+        for k in range(s, e):
+            a, b = body_a[k], body_b[k]
+            u2 = 0.0
+            for i in range(3):
+                j, l = (i + 1) % 3, (i + 2) % 3
+                ua = v[a, i] + w[a, j] * arm_a[k, l] - w[a, l] * arm_a[k, j]
+                ub = v[b, i] + w[b, j] * arm_b[k, l] - w[b, l] * arm_b[k, j]
+                u2 += (ua - ub) ** 2
+            fastest = max(fastest, u2)
+        floor = relative * np.sqrt(fastest)
+        for k in range(s, e):
+            out[k] = max(out[k], floor)
+    return out
 
 
 @njit

@@ -49,7 +49,7 @@ from thesis_rbd.dynamics.contact_kinematics import (
 )
 from thesis_rbd.dynamics.contact_solver import contact_basis
 from thesis_rbd.dynamics.integrators import body_forces
-from thesis_rbd.dynamics.island_solver import correct_positions, solve_islands
+from thesis_rbd.dynamics.island_solver import correct_positions, island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands, order_from_the_top
 from thesis_rbd.dynamics.pgs import build_rows
 from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses, pair_keys
@@ -206,9 +206,14 @@ def solve_contacts(
             lam[k, d] += basis[k, d, 2] * warm[k, 2]
 
     rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
+    # a moving island is solved to a fraction of its motion before the forces, one at rest to
+    # the slop's tolerance (contact_settings)
+    relaxed = island_tolerances(
+        island_start, sa, sb, arm_a, arm_b, v0, w0, tolerance, settings[cs.RELATIVE_TOLERANCE]
+    )
     solve_islands(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        tolerance, movable_mass, inverse_inertia, v, w, lam, stats,
+        relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
     )  # fmt: skip
     stats[1] += correct_positions(
         settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
