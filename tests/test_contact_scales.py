@@ -145,18 +145,22 @@ def total_momenta(world):
 
 def test_a_colliding_cloud_conserves_linear_and_angular_momentum():
     """Contact impulses act at one world point on both bodies, and positions move only with
-    the velocities: total P to round-off and total L to 1e-6 over 3 s of collisions."""
+    the velocities: total P to round-off and total L to 1e-6 at every step of 3 s of
+    collisions (the largest change over the run, not the last)."""
     world = mixed_cloud()
     P0, L0 = total_momenta(world)
     contacts = 0
+    worst_P, worst_L, scale = 0.0, 0.0, 0.0
     for _ in range(round(3 / DT)):
         world.step()
         contacts += len(world.contacts["depths"])
-    P1, L1 = total_momenta(world)
+        P1, L1 = total_momenta(world)
+        worst_P = max(worst_P, np.abs(P1 - P0).max())
+        worst_L = max(worst_L, np.linalg.norm(L1 - L0))
+        scale = max(scale, sum(np.linalg.norm(world.linear_momentum(i)) for i in range(len(world))))
     assert contacts > 50  # the bodies really collided, more than once
-    scale = sum(np.linalg.norm(world.linear_momentum(i)) for i in range(len(world)))
-    assert np.abs(P1 - P0).max() <= 1e-12 * scale
-    assert np.linalg.norm(L1 - L0) <= 1e-6 * np.linalg.norm(L0)
+    assert worst_P <= 1e-12 * scale
+    assert worst_L <= 1e-6 * np.linalg.norm(L0)
 
 
 def test_a_non_finite_step_names_the_body_and_leaves_the_world_as_it_was():
