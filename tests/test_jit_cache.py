@@ -45,4 +45,3 @@ def test_a_cached_kernel_is_recompiled_once_any_module_of_the_package_changed(
     assert edited(1.5) == 3.0
     assert sum(edited.stats.cache_hits.values()) == 0
     assert sum(edited.stats.cache_misses.values()) == 1
-
