@@ -302,6 +302,30 @@ def test_fast_small_sphere_does_not_tunnel_through_a_thin_plate(start_height):
     assert world.position(sphere)[2] == pytest.approx(resting, abs=bound)
 
 
+@pytest.mark.parametrize("start_height", np.linspace(0.3, 0.3 + 20 * DT, 8, endpoint=False))
+def test_a_sphere_slower_than_its_size_per_step_stops_on_a_thinner_plate(start_height):
+    """0.05 m sphere at 20 m/s: 0.083 m per step, less than its own 0.1 m (not a fast body)
+    but more than the plate's 2 cm, so some start heights end a step with its centre past
+    the plate's middle, where the least penetration points down and out of the plate's far
+    side. The time of impact must still catch it on the plate's top, as in the test above."""
+    world = rbd.World(dt=DT)
+    world.add_body(rbd.shapes.box((1, 1, 0.02)), static=True)
+    sphere_mesh = rbd.shapes.icosphere(0.05, 2)
+    sphere = world.add_body(
+        sphere_mesh, mass=0.1, position=(0, 0, start_height), linear_velocity=(0, 0, -20)
+    )
+    resting = 0.01 - sphere_mesh.vertices[:, 2].min()
+    bound = TOLERANCE * 0.02
+    deepest, lowest = 0.0, np.inf
+    for _ in range(60):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+        lowest = min(lowest, world.position(sphere)[2])
+    assert lowest >= resting - bound
+    assert deepest <= bound
+    assert world.position(sphere)[2] == pytest.approx(resting, abs=bound)
+
+
 def test_sleeping_wakes_on_touch_and_on_force():
     world = floor_world()
     resting = world.add_body(CUBE, mass=1.0, position=(0, 0, 0.5))

@@ -577,10 +577,12 @@ class World(WorldSteadySteps, WorldReadout):
         b, c = self.bodies, self._contacts
         n = b.count
         movers = ~(self._frozen | self._solved[:n])
-        hits, v, w = find_hits(
+        hits, receding, v, w = find_hits(
             n, self._frozen, movers, c.ints, c.floats, c.count, *self._state,
             *self._constants[:2],
         )  # fmt: skip
+        if receding.any():
+            hits |= self._passed_through(c, receding)
         if not hits.any():
             return
         acceleration = self._external_force * b.inverse_mass[:, None]
@@ -591,6 +593,21 @@ class World(WorldSteadySteps, WorldReadout):
         self._rewound = bool(rewound.any())
         # the stepped-back bodies carry the velocity of their time of impact
         b.linear_momentum[rewound] = v[rewound] / b.inverse_mass[rewound, None]
+
+    def _passed_through(self, contacts, receding: np.ndarray) -> np.ndarray:
+        """(c,) bool: the receding contacts (``find_hits``) whose pair was apart at the start
+        of the step, so that the mover ran into the other during the step and flew past its
+        middle. Such contacts are rare (a step rarely carries a body past half the thickness
+        of what it hits), so their pairs are asked one at a time."""
+        pairs = np.stack([contacts["body_a"], contacts["body_b"]], axis=1)
+        passed = np.zeros(len(receding), bool)
+        for pair in np.unique(pairs[receding], axis=0):
+            apart = not self._collision.intersects(
+                pair[None], self._start_position, self._start_orientation
+            )
+            if apart:
+                passed |= receding & (pairs == pair).all(axis=1)
+        return passed
 
     def _has_rewound(self) -> bool:
         return self._rewound

@@ -345,13 +345,16 @@ class CollisionPipeline:
             self.geometry_of_body, trees,
         )  # fmt: skip
 
-    def intersects(self, pairs: np.ndarray) -> bool:
-        """Whether any of the body ``pairs`` (p, 2) intersects in the current state
+    def intersects(self, pairs: np.ndarray, position=None, orientation=None) -> bool:
+        """Whether any of the body ``pairs`` (p, 2) intersects in the current state, or with
+        the bodies at ``position`` (n, 3) and ``orientation`` (n, 4) if given
         (``touching.pairs_touch``: convex pairs without the speculative margin, so that
         this answer and ``contacts_of`` agree)."""
+        if position is None:
+            position, orientation = self._position, self._orientation
         return pairs_touch(
-            np.ascontiguousarray(pairs), self._position, self._orientation,
-            self._center_of_mass_local, *self.touch_inputs(),
+            np.ascontiguousarray(pairs), position, orientation, self._center_of_mass_local,
+            *self.touch_inputs(),
         )  # fmt: skip
 
     def contacts_of(self, pairs: np.ndarray) -> ContactSet:

@@ -71,11 +71,18 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
     """Contacts a body in free flight ran into during the step: it penetrates (depth > 0)
     and approaches.
 
+    A penetrating contact of a body in free flight that does not approach is *receding*: the
+    body either touched the other at the start of the step already and is leaving it, or it
+    flew past the other's middle within the step (a small fast body through a thin plate),
+    so that the least penetration now points out of the far side. Only the caller, which
+    can ask whether the pair touched at the start of the step, can tell the two apart.
+
     The contacts come packed (``contact_ints``, ``contact_floats``, ``contact_count`` of a
     ``ContactSet``), as the contact stage takes them: the fields are then sliced here, and
     the kernels both stages call are compiled for one kind of array.
 
-    Returns ``hits`` (c,) bool and the body velocities v, w (n, 3) at the end of the step.
+    Returns ``hits`` (c,) bool, ``receding`` (c,) bool and the body velocities v, w (n, 3)
+    at the end of the step.
     """
     body_a, body_b, points, normals, depths, _, _ = contact_views(
         contact_ints, contact_floats, contact_count
@@ -86,6 +93,7 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
         inverse_inertia_body,
     )  # fmt: skip
     hits = np.zeros(c, np.bool_)
+    receding = np.zeros(c, np.bool_)
     arm_a = np.empty((c, 3))
     arm_b = np.empty((c, 3))
     for k in range(c):
@@ -97,7 +105,8 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
         if not (movers[a] or movers[b]) or depths[k] <= 0.0:
             continue
         hits[k] = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w) < 0.0
-    return hits, v, w
+        receding[k] = not hits[k]
+    return hits, receding, v, w
 
 
 @njit
