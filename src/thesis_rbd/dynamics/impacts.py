@@ -2,7 +2,9 @@
 
 After the narrow phase, a contact is a *hit* when one of its bodies flew freely through the
 step (the contact stage did not act on it), it penetrates and it approaches: the body met the
-other during the step. ``find_hits`` names them; the collision side
+other during the step. A penetrating contact that recedes is a hit too if the pair was apart
+at the start of the step (the body flew past the middle of a thin one). ``find_hits`` names
+the first kind and the candidates of the second, which the world checks; the collision side
 steps the bodies back to the time of impact (``collision/time_of_impact.py``); ``resolve_impacts``
 then resolves each island with a stepped-back body in two phases:
 
