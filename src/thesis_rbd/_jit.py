@@ -99,7 +99,8 @@ _POLICY = {"nopython": True, "fastmath": False}
 
 
 class _TypeDispatcher(CPUDispatcher):
-    """numba's CPU dispatcher, resolving calls from other kernels by argument types alone."""
+    """numba's CPU dispatcher, resolving calls from other kernels by argument types alone and
+    caching under the package-wide source stamp."""
 
     def get_call_template(self, args, kws):
         args = tuple(types.unliteral(a) for a in args)
