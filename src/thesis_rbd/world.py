@@ -46,7 +46,7 @@ import numpy as np
 from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline
-from thesis_rbd.collision.time_of_impact import step_back_to_impact
+from thesis_rbd.collision.time_of_impact import passed_through, step_back_to_impact
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
 from thesis_rbd.dynamics.contact_settings import ContactSettings
@@ -582,7 +582,9 @@ class World(WorldSteadySteps, WorldReadout):
             *self._constants[:2],
         )  # fmt: skip
         if receding.any():
-            hits |= self._passed_through(c, receding)
+            hits |= passed_through(
+                self._collision, c, receding, self._start_position, self._start_orientation
+            )
         if not hits.any():
             return
         acceleration = self._external_force * b.inverse_mass[:, None]
@@ -593,21 +595,6 @@ class World(WorldSteadySteps, WorldReadout):
         self._rewound = bool(rewound.any())
         # the stepped-back bodies carry the velocity of their time of impact
         b.linear_momentum[rewound] = v[rewound] / b.inverse_mass[rewound, None]
-
-    def _passed_through(self, contacts, receding: np.ndarray) -> np.ndarray:
-        """(c,) bool: the receding contacts (``find_hits``) whose pair was apart at the start
-        of the step, so that the mover ran into the other during the step and flew past its
-        middle. Such contacts are rare (a step rarely carries a body past half the thickness
-        of what it hits), so their pairs are asked one at a time."""
-        pairs = np.stack([contacts["body_a"], contacts["body_b"]], axis=1)
-        passed = np.zeros(len(receding), bool)
-        for pair in np.unique(pairs[receding], axis=0):
-            apart = not self._collision.intersects(
-                pair[None], self._start_position, self._start_orientation
-            )
-            if apart:
-                passed |= receding & (pairs == pair).all(axis=1)
-        return passed
 
     def _has_rewound(self) -> bool:
         return self._rewound

@@ -34,6 +34,7 @@ __all__ = [
     "group_contacts",
     "impact_groups",
     "move_ballistic",
+    "passed_through",
     "step_back_to_impact",
     "unique_pairs",
 ]
@@ -118,6 +119,41 @@ def group_contacts(group, g, body_a, body_b):
     for k in range(body_a.shape[0]):
         mine[k] = group[body_a[k]] == g or group[body_b[k]] == g
     return members, mine, unique_pairs(body_a, body_b, mine)
+
+
+def passed_through(detector, contacts, receding, start_position, start_orientation):
+    """Which receding contacts (``impacts.find_hits``) a body ran into during the step.
+
+    A penetrating contact of a body in free flight that recedes along its normal is a hit
+    when its pair was apart at the start of the step: the body flew past the middle of the
+    other (a small body through a thin plate), so the least penetration points out of the
+    far side. Such contacts are rare, so each distinct pair is asked on its own.
+
+    Parameters
+    ----------
+    detector : CollisionPipeline
+        Answers ``intersects(pairs, position, orientation)``.
+    contacts : ContactSet
+        This step's contacts (c rows).
+    receding : (c,) bool
+    start_position : (n, 3) float64
+    start_orientation : (n, 4) float64
+        The bodies' poses at the start of the step (world frame).
+
+    Returns
+    -------
+    (c,) bool
+        The receding contacts whose pair did not touch at the start of the step.
+    """
+    pairs = np.stack([contacts["body_a"], contacts["body_b"]], axis=1)[receding]
+    distinct, which = np.unique(pairs, axis=0, return_inverse=True)
+    touched = [
+        detector.intersects(pair[None], start_position, start_orientation) for pair in distinct
+    ]
+    apart = ~np.array(touched, bool)
+    passed = np.zeros(len(receding), bool)
+    passed[receding] = apart[which.ravel()]
+    return passed
 
 
 def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt):

@@ -97,15 +97,28 @@ def body_velocities(count, static, orientation, linear_momentum, angular_momentu
 
 
 @njit
+def _relative_component(i, k, a, b, arm_a, arm_b, v, w):
+    j, l = (i + 1) % 3, (i + 2) % 3
+    ua = v[a, i] + w[a, j] * arm_a[k, l] - w[a, l] * arm_a[k, j]
+    ub = v[b, i] + w[b, j] * arm_b[k, l] - w[b, l] * arm_b[k, j]
+    return ua - ub
+
+
+@njit
+def relative_velocity(k, a, b, arm_a, arm_b, v, w):
+    """u = (v + w x r)_a - (v + w x r)_b at contact k (3 floats, world frame)."""
+    return (
+        _relative_component(0, k, a, b, arm_a, arm_b, v, w),
+        _relative_component(1, k, a, b, arm_a, arm_b, v, w),
+        _relative_component(2, k, a, b, arm_a, arm_b, v, w),
+    )
+
+
+@njit
 def normal_velocity(k, a, b, normal, arm_a, arm_b, v, w):
     """u . n at contact k for body velocities v, w."""
-    total = 0.0
-    for i in range(3):
-        j, l = (i + 1) % 3, (i + 2) % 3
-        ua = v[a, i] + w[a, j] * arm_a[k, l] - w[a, l] * arm_a[k, j]
-        ub = v[b, i] + w[b, j] * arm_b[k, l] - w[b, l] * arm_b[k, j]
-        total += normal[k, i] * (ua - ub)
-    return total
+    u = relative_velocity(k, a, b, arm_a, arm_b, v, w)
+    return normal[k, 0] * u[0] + normal[k, 1] * u[1] + normal[k, 2] * u[2]
 
 
 @njit

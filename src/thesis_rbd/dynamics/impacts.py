@@ -4,9 +4,10 @@ After the narrow phase, a contact is a *hit* when one of its bodies flew freely 
 step (the contact stage did not act on it), it penetrates and it approaches: the body met the
 other during the step. A penetrating contact that recedes is a hit too if the pair was apart
 at the start of the step (the body flew past the middle of a thin one). ``find_hits`` names
-the first kind and the candidates of the second, which the world checks; the collision side
-steps the bodies back to the time of impact (``collision/time_of_impact.py``); ``resolve_impacts``
-then resolves each island with a stepped-back body in two phases:
+the first kind and the candidates of the second; the collision side
+(``collision/time_of_impact.py``) checks those candidates and steps the bodies back to the
+time of impact; ``resolve_impacts`` then resolves each island with a stepped-back body in
+two phases:
 
 1. at the time of impact, the collision: Poisson's compression (no approach, with friction)
    and restitution, e times the compression impulse, for contacts approaching faster than
@@ -76,8 +77,8 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
     A penetrating contact of a body in free flight that does not approach is *receding*: the
     body either touched the other at the start of the step already and is leaving it, or it
     flew past the other's middle within the step (a small fast body through a thin plate),
-    so that the least penetration now points out of the far side. Only the caller, which
-    can ask whether the pair touched at the start of the step, can tell the two apart.
+    so that the least penetration now points out of the far side.
+    ``time_of_impact.passed_through`` tells the two apart by the start-of-step poses.
 
     The contacts come packed (``contact_ints``, ``contact_floats``, ``contact_count`` of a
     ``ContactSet``), as the contact stage takes them: the fields are then sliced here, and

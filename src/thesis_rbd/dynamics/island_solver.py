@@ -27,6 +27,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
+from thesis_rbd.dynamics.contact_kinematics import relative_velocity
 from thesis_rbd.dynamics.contact_solver import solve_exact
 from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
@@ -61,20 +62,12 @@ def island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, toleranc
         max(tolerance, relative x the island's fastest contact-point speed), a fresh array.
     """
     out = tolerance.copy()
-    if relative <= 0.0:
-        return out
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
         fastest = 0.0
         for k in range(s, e):
-            a, b = body_a[k], body_b[k]
-            u2 = 0.0
-            for i in range(3):
-                j, l = (i + 1) % 3, (i + 2) % 3
-                ua = v[a, i] + w[a, j] * arm_a[k, l] - w[a, l] * arm_a[k, j]
-                ub = v[b, i] + w[b, j] * arm_b[k, l] - w[b, l] * arm_b[k, j]
-                u2 += (ua - ub) ** 2
-            fastest = max(fastest, u2)
+            u = relative_velocity(k, body_a[k], body_b[k], arm_a, arm_b, v, w)
+            fastest = max(fastest, u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         floor = relative * np.sqrt(fastest)
         for k in range(s, e):
             out[k] = max(out[k], floor)
