@@ -11,6 +11,7 @@ from tests.reference_pgs import ContactRows, nearest_in_polygon, reference_pgs
 from tests.reference_subspace import reference_subspace_step
 from thesis_rbd.dynamics.contact_solver import (
     contact_basis,
+    delassus_matrix,
     relative_velocity,
     solve_exact,
     solve_pgs,
@@ -186,16 +187,29 @@ def test_impulses_between_free_bodies_conserve_momentum(seed, count, solver):
 
 
 @given(st.integers(0, 10**6), st.integers(1, 4))
+@example(seed=180585, count=4)
 def test_exact_solution_satisfies_the_contact_conditions(seed, count):
+    """Non-penetration, complementarity and the friction cone after the exact solve.
+
+    Random contacts can pose a nearly contradictory problem whose exact answer has huge
+    impulses that cancel (the example: 3e7 against velocities of order 1). The normal velocity
+    is then a sum of terms of size sum_j |A_kj| |lambda_j|, and round-off in forming it (here,
+    and in the solver) grows with that sum, as for any floating-point sum (Higham, Accuracy
+    and Stability, 4.2): so each contact's velocity bound is 1e-8 plus 64 units of round-off
+    of that sum. For impulses of order 1 the second term is about 1e-14 and the bound is 1e-8.
+    """
     contacts, bias, friction, v, w, im, ii, *_ = random_free_bodies(seed, count)
+    summands = np.abs(delassus_matrix(contacts, (v, w, im, ii)))
     impulse, status = solve("exact", contacts, bias, friction, v, w, im, ii)
     assume(status == 0)  # the rare fallback to PGS is counted in its own test below
     bodies = (v, w, im, ii)
     scale = 1 + np.abs(impulse).max()
+    summed = summands @ np.abs(impulse).reshape(-1)
     for k in range(count):
         u_n = relative_velocity(k, 0, contacts, bodies) + bias[k]
-        assert u_n >= -1e-8 and impulse[k, 0] >= -1e-10
-        assert abs(u_n * impulse[k, 0]) <= 1e-8 * scale
+        velocity_tolerance = 1e-8 + 64 * np.finfo(float).eps * summed[3 * k]
+        assert u_n >= -velocity_tolerance and impulse[k, 0] >= -1e-10
+        assert abs(u_n * impulse[k, 0]) <= velocity_tolerance * scale
         tangential = np.hypot(impulse[k, 1], impulse[k, 2])
         assert tangential <= friction[k] * impulse[k, 0] + 1e-9 * scale
 
