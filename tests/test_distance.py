@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -166,6 +167,30 @@ def test_tori_path_batch_equals_single_queries():
     poses = tori_poses()[::4]
     single = [rbd.collide(tree, np.eye(4), tree, T).colliding for T in poses]
     np.testing.assert_array_equal(rbd.collide_batch(tree, np.eye(4), tree, poses), single)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_fine_path_batch_equals_single_queries_on_any_thread_count(threads):
+    """On a path fine enough that one pose's intersecting pair mostly still intersects at the
+    next (the batch then answers from that witness), and on one thread or two (each thread's
+    runs keep their own witnesses), every answer is the single query's."""
+    tree = rbd.OBBTree(tori_mesh())
+    poses = tori_poses(2000)[560:860]
+    single = [rbd.collide(tree, np.eye(4), tree, T) for T in poses]
+    colliding = [s.colliding for s in single]
+    witnessed = sum(
+        rbd.collide(tree, np.eye(4), tree, T, mode="all").pairs.tolist().count(list(s.pairs[0]))
+        for s, T in zip(single[:-1], poses[1:], strict=True)
+        if s.colliding
+    )
+    assert 0 < witnessed < sum(colliding) and not all(colliding)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        batch = rbd.collide_batch(tree, np.eye(4), tree, poses)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(batch, colliding)
 
 
 @pytest.mark.parametrize(

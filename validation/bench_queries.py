@@ -14,7 +14,10 @@ the query):
   against a python-fcl loop (``num_max_contacts=1``); and the same over 10000 random poses of
   B (uniform rotations, centres uniform in a cube of half-side 4 m or 10 m around A: 7 % and
   0.4 % of them touching, most missing at the root boxes, as a sampling motion planner's
-  queries do), where the per-call cost a batch saves is most of the work;
+  queries do), where the per-call cost a batch saves is most of the work; and over the tori
+  path ten times finer (2000 poses), where a pose's intersecting pair mostly still
+  intersects at the next, as on a planner's finely checked motion. The batch runs on numba's
+  threads (all cores by default; the report states how many), python-fcl on one;
 * "first, tori path": :func:`thesis_rbd.collide` in "first" mode per pose against the same
   python-fcl loop (the separated poses included);
 * "ray_cast, 4000 rays": :func:`thesis_rbd.ray_cast` of 4000 rays at a 2000-triangle torus
@@ -37,6 +40,7 @@ from validation.tori import tori_mesh, tori_poses
 
 LIFT = 0.8  # m along z: the separated variant of the tori path
 RAY_COUNT = 4000
+FINE_POSE_COUNT = 2000  # the tori path ten times finer, as a planner checks one motion
 
 
 def lifted_tori_poses() -> np.ndarray:
@@ -143,6 +147,24 @@ def test_collide_batch_path(benchmark, path):
 
 def test_fcl_collide_loop_path(benchmark, path):
     _sweep(benchmark, "collide_batch, tori path", path.fcl_firsts, 10, "python-fcl", triangles=5000)
+
+
+@pytest.fixture(scope="module")
+def fine_path():
+    scene = Scene(tori_poses(FINE_POSE_COUNT))
+    scene.batch()
+    return scene
+
+
+def test_collide_batch_fine_path(benchmark, fine_path):
+    group = f"collide_batch, tori path at {FINE_POSE_COUNT} poses"
+    hits = _sweep(benchmark, group, fine_path.batch, 5, triangles=5000)
+    assert FINE_POSE_COUNT // 2 < hits < FINE_POSE_COUNT
+
+
+def test_fcl_collide_loop_fine_path(benchmark, fine_path):
+    group = f"collide_batch, tori path at {FINE_POSE_COUNT} poses"
+    _sweep(benchmark, group, fine_path.fcl_firsts, 3, "python-fcl", triangles=5000)
 
 
 def test_first_path(benchmark, path):

@@ -20,6 +20,12 @@ _STUDY = BenchmarkSuiteStudy(
     peer_series_keys=("group",),
     # The per-call cost of a query with almost no work, against the mesh size (one triangle
     # for the distance, 5000 for the overlap query missing at the root).
+    peer_setup=(
+        "python-fcl and trimesh run at their defaults, one query per pose or one ray batch, on "
+        "one thread (neither has a call for a stack of poses). collide_batch runs on numba's "
+        "threads, at numba's default of one per core of the machine described above; "
+        "distance_batch, the other queries and the per-call overheads run on one."
+    ),
     scaling_tests=(
         "test_overhead_first",
         "test_fcl_overhead_first",

@@ -86,17 +86,20 @@ def as_pose_stack(T, name: str) -> np.ndarray:
         array = np.asarray(T, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be numeric, got {type(T).__name__}: {exc}") from exc
+    shape = array.shape
     if array.ndim == 2:
-        return as_pose(array, name)[None]
+        array = array[None]
     if array.ndim != 3 or array.shape[1:] != (4, 4):
-        raise ValueError(f"{name} must have shape (4, 4) or (k, 4, 4), got {array.shape}")
+        raise ValueError(f"{name} must have shape (4, 4) or (k, 4, 4), got {shape}")
     if len(array) == 0:
-        raise ValueError(f"{name} must hold at least one pose, got shape {array.shape}")
-    stack = np.require(array, requirements=["C", "W", "A"])
+        raise ValueError(f"{name} must hold at least one pose, got shape {shape}")
+    flags = array.flags
+    stack = array if flags.c_contiguous and flags.writeable else np.array(array, order="C")
     bad = _first_bad_pose(stack)
     if bad >= 0:
-        as_rigid_transform(stack[bad], f"{name}[{bad}]")
-        raise ValueError(f"{name}[{bad}] is not a rigid transform")
+        label = name if len(shape) == 2 else f"{name}[{bad}]"
+        as_rigid_transform(stack[bad], label)
+        raise ValueError(f"{label} is not a rigid transform")
     return stack
 
 

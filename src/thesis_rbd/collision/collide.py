@@ -147,6 +147,18 @@ def _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
 
 
 @njit
+def faces_intersect(Pa, Pb, T_a, T_b, face_a, face_b):
+    """Whether face ``face_a`` of A and ``face_b`` of B intersect at poses T_a, T_b.
+
+    The triangle test :func:`traverse` makes, on the relative pose it forms: a pair that the
+    traversal reports at a pose passes here at that pose, and a pair that passes here is one
+    the traversal would reach (its boxes overlap, so it is never pruned).
+    """
+    Mab, tab = relative_pose(T_a, T_b)
+    return _tri_pair(face_a, face_b, Pa, layout(Pa), Pb, layout(Pb), Mab, tab)
+
+
+@njit
 def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
     """Triangle t of tree (P, L) (mapped by ``x -> R x + tr``) against box k of (Pk, Lk)."""
     ck = (Pk[Lk[0] + k, 0], Pk[Lk[0] + k, 1], Pk[Lk[0] + k, 2])
