@@ -21,6 +21,10 @@ scene's bounds and integration stages cost. The option reaches the kernel's call
 compiled without reference counting too (a second time, if allocating kernels call them as
 well), so such a kernel cannot call one that allocates.
 
+A large kernel that several kernels call is declared ``separate=True``: callers reach it through
+a pointer cell instead of linking its code into theirs, so LLVM optimises and emits it once
+instead of once per caller on every path above it (:mod:`._separate`).
+
 numba keys a cached kernel on its own source file alone, so a kernel whose callee changed in
 another module would load its old machine code, with the old callee linked in. Every kernel's
 cache entry is therefore also keyed on the text of the whole package (a SHA-256 over its
@@ -45,6 +49,8 @@ from numba.core.caching import (
     ZipCacheLocator,
 )
 from numba.core.registry import CPUDispatcher
+
+from thesis_rbd._separate import MissingSeparateKernel, SeparateKernelType, register, resolve_cells
 
 __all__ = ["njit", "package_source_hash"]
 
@@ -88,11 +94,24 @@ class _PackageCacheImpl(CompileResultCacheImpl):
     # numba's own order, without the IPython locator (no kernel is defined in a notebook cell)
     _locator_classes = (_UserProvidedLocator, _InTreeLocator, _UserWideLocator, _ZipLocator)
 
+    def rebuild(self, target_context, payload):
+        """A cached kernel, after filling the cells of the separate kernels it calls."""
+        library = payload[0]  # (name, kind, data): numba's serialised code library
+        if library[1] == "object":
+            resolve_cells(library[2][0])
+        return super().rebuild(target_context, payload)
+
 
 class _PackageFunctionCache(FunctionCache):
     """numba's function cache with the package-wide source stamp."""
 
     _impl_class = _PackageCacheImpl
+
+    def load_overload(self, sig, target_context):
+        try:
+            return super().load_overload(sig, target_context)
+        except MissingSeparateKernel:
+            return None  # compiled afresh, with its separate kernels
 
 
 _POLICY = {"nopython": True, "fastmath": False}
@@ -110,13 +129,27 @@ class _TypeDispatcher(CPUDispatcher):
     def enable_caching(self):
         self._cache = _PackageFunctionCache(self.py_func)
 
+    def cached_signatures(self) -> list[tuple]:
+        """Argument types of every version in the on-disk cache (fresh entries only)."""
+        return [key[0] for key in self._cache._cache_file._load_index()]
 
-def njit(func=None, allocates=True, **options):
+
+class _SeparateDispatcher(_TypeDispatcher):
+    """A kernel that other kernels call through its cell, unlinked (:mod:`._separate`)."""
+
+    @property
+    def _numba_type_(self):
+        return SeparateKernelType(self)
+
+
+def njit(func=None, allocates=True, separate=False, **options):
     """``numba.njit`` with the package policy (``cache=True``, ``fastmath=False``, one
     specialization per argument types).
 
     Usable bare (``@njit``) or with options (``@njit(allocates=False)``);
-    ``allocates=False`` for a kernel that creates no array (see the module docstring).
+    ``allocates=False`` for a kernel that creates no array (see the module docstring);
+    ``separate=True`` for a large kernel that other kernels call without linking its code into
+    theirs (:mod:`._separate`).
     """
     if not allocates:
         options = {**options, "_nrt": False}
@@ -124,10 +157,11 @@ def njit(func=None, allocates=True, **options):
     def compile_later(function):
         if numba.config.DISABLE_JIT:
             return function
-        dispatcher = _TypeDispatcher(
-            py_func=function, locals={}, targetoptions={**_POLICY, **options}
-        )
+        kind = _SeparateDispatcher if separate else _TypeDispatcher
+        dispatcher = kind(py_func=function, locals={}, targetoptions={**_POLICY, **options})
         dispatcher.enable_caching()
+        if separate:
+            register(dispatcher)
         return dispatcher
 
     return compile_later if func is None else compile_later(func)

@@ -304,7 +304,7 @@ def _apply_log(keys, flags, meta, log_keys, log_start, nlog, touched, ntouched):
     return keys, flags, touched, ntouched
 
 
-@njit
+@njit(separate=True)
 def insertion_sort_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved,
                          values, keys, flags, meta, budget, log_keys, log_start):  # fmt: skip
     """One coherent frame: move each axis's records into their columns and insertion-sort them.
@@ -447,7 +447,7 @@ def stage_bounds(lower, upper, box, cells, old_box, grid, check):
     return 0, 0, 0, total
 
 
-@njit
+@njit(separate=True)
 def coherent_frame(box, old_box, cells, old_cells, grid, val, ep, col, count, rng, moved, values,
                    keys, flags, meta, pair_keys, budget, log_keys, log_start, no_keys):  # fmt: skip
     """Insertion sort, net events and the new sorted pair list of a frame, in one call.

@@ -221,7 +221,7 @@ def _gather_loop(H, h, face, R, t, out):
     return count
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def _face_manifold(
     H, ha, hb, kind, reference_face, start_vertex, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
@@ -294,7 +294,7 @@ def _face_manifold(
     return n_keep, nx, ny, nz
 
 
-@njit
+@njit(separate=True)
 def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin, scratch):
     """Axis of pair (A, B): (kind, i, j, separation, ux, uy, uz), as ``sat_query``, exact
     for separations up to ``margin``.
@@ -349,7 +349,7 @@ def _query_scratch(H):
     )
 
 
-@njit
+@njit(separate=True)
 def convex_contacts_for_pairs(
     pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
     center_of_mass_local, cache_ints, cache_floats, cache_int_offset, cache_float_offset,

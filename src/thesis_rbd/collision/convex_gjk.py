@@ -567,7 +567,7 @@ def _sat_fallback(H, ha, hb, R, t, tie, margin):
     )  # fmt: skip
 
 
-@njit
+@njit(separate=True)
 def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, margin, scratch):
     """Axis of least penetration or a separating axis of hulls A and B, by GJK and EPA.
 

@@ -74,7 +74,7 @@ def island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, toleranc
     return out
 
 
-@njit
+@njit(separate=True)
 def solve_islands(
     settings, polygon, island_start, body_a, body_b, arm_a, arm_b, basis, rows, bias, bounce,
     friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats,

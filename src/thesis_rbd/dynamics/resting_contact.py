@@ -61,7 +61,7 @@ __all__ = ["STATS", "solve_contacts"]
 STATS = ("islands", "sweeps", "max_sweeps", "exact_islands", "unconverged", "bad_body")
 
 
-@njit
+@njit(separate=True)
 def solve_contacts(
     settings, polygon, count, static, contact_ints, contact_floats, contact_count,
     position, orientation, linear_momentum, angular_momentum,
