@@ -129,10 +129,6 @@ class _TypeDispatcher(CPUDispatcher):
     def enable_caching(self):
         self._cache = _PackageFunctionCache(self.py_func)
 
-    def cached_signatures(self) -> list[tuple]:
-        """Argument types of every version in the on-disk cache (fresh entries only)."""
-        return [key[0] for key in self._cache._cache_file._load_index()]
-
 
 class _SeparateDispatcher(_TypeDispatcher):
     """A kernel that other kernels call through its cell, unlinked (:mod:`._separate`)."""
@@ -140,6 +136,11 @@ class _SeparateDispatcher(_TypeDispatcher):
     @property
     def _numba_type_(self):
         return SeparateKernelType(self)
+
+    def cached_signatures(self) -> list[tuple]:
+        """Argument types of every version in the on-disk cache (fresh entries only): what a
+        cached caller's cell may name."""
+        return [key[0] for key in self._cache._cache_file._load_index()]
 
 
 def njit(func=None, allocates=True, separate=False, **options):

@@ -20,6 +20,7 @@ __all__ = [
     "as_pose",
     "as_pose_stack",
     "call_normalised",
+    "pose_at",
     "pose_ok",
     "relative_pose",
     "sealed",
@@ -129,6 +130,12 @@ def pose_ok(T):
         + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0])
     )
     return det >= 0.0
+
+
+@njit
+def pose_at(stack, i):
+    """Pose i of a (k, 4, 4) stack, or its one pose for every i when k is 1 (broadcast)."""
+    return stack[0] if stack.shape[0] == 1 else stack[i]
 
 
 @njit

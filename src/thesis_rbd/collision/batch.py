@@ -20,11 +20,11 @@ import numpy as np
 from numba import prange
 
 from thesis_rbd._jit import njit
-from thesis_rbd.collision._query_args import call_normalised, sealed
+from thesis_rbd.collision._query_args import call_normalised, pose_at, sealed
 from thesis_rbd.collision.collide import faces_intersect, roots_disjoint, traverse
 from thesis_rbd.collision.distance import pose_stacks, stacked_distances
 
-__all__ = ["RUNS_PER_THREAD", "collide_batch", "distance_batch"]
+__all__ = ["collide_batch", "distance_batch"]
 
 # Runs of consecutive poses per thread: more runs even out the threads' work on a stack whose
 # costly poses cluster, fewer keep more of a path's witnesses (one is lost per run).
@@ -43,8 +43,8 @@ def _collide_run(P_a, T_a, P_b, T_b, start, stop, colliding):
     witness_a = -1
     witness_b = -1
     for i in range(start, stop):
-        Ta = T_a[0] if T_a.shape[0] == 1 else T_a[i]
-        Tb = T_b[0] if T_b.shape[0] == 1 else T_b[i]
+        Ta = pose_at(T_a, i)
+        Tb = pose_at(T_b, i)
         if witness_a >= 0 and faces_intersect(P_a, P_b, Ta, Tb, witness_a, witness_b):
             colliding[i] = True
             continue

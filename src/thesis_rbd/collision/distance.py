@@ -28,6 +28,7 @@ from thesis_rbd.collision._query_args import (
     as_pose,
     as_pose_stack,
     call_normalised,
+    pose_at,
     pose_ok,
     raise_bad_pose,
     relative_pose,
@@ -382,8 +383,8 @@ def _distance_stack_kernel(P_a, T_a, P_b, T_b):
     bound_tests = 0
     triangle_tests = 0
     for i in range(k):
-        Ta = T_a[0] if T_a.shape[0] == 1 else T_a[i]
-        Tb = T_b[0] if T_b.shape[0] == 1 else T_b[i]
+        Ta = pose_at(T_a, i)
+        Tb = pose_at(T_b, i)
         M, t = relative_pose(Ta, Tb)
         d, pa, pb, fa, fb, nb, nt = mesh_distance(P_a, P_b, M, t)
         distances[i] = d
