@@ -1,8 +1,9 @@
 """One start of the command line, as a new user meets it, with numba's compiles recorded.
 
-    python -m validation.startup_probe SCENE SECONDS RECORD.json
+    python -m validation.startup_probe SCENE SECONDS RECORD.json [HELPERS]
 
-runs ``thesis-rbd run SCENE --seconds SECONDS --quiet`` in this process (the console script's
+runs ``thesis-rbd run SCENE --seconds SECONDS --quiet [--compile-helpers HELPERS]`` in this
+process (the console script's
 own entry point, :func:`thesis_rbd.cli.main`) under a :class:`thesis_rbd.compile_log.CompileLog`,
 and writes the compiles to RECORD.json. The caller times the whole process, interpreter start
 included; :mod:`validation.studies.startup` starts it in a fresh process per measurement.
@@ -17,7 +18,7 @@ from time import perf_counter
 
 
 def main(argv: list[str]) -> int:
-    scene, seconds, record_path = argv
+    scene, seconds, record_path, *helpers = argv
     started = perf_counter()
     from thesis_rbd.cli import main as command_line
     from thesis_rbd.compile_log import CompileLog
@@ -25,7 +26,8 @@ def main(argv: list[str]) -> int:
     imported = perf_counter() - started
     with CompileLog() as log:
         try:
-            command_line(["run", scene, "--seconds", seconds, "--quiet"])
+            options = ["--compile-helpers", helpers[0]] if helpers else []
+            command_line(["run", scene, "--seconds", seconds, "--quiet", *options])
         except SystemExit as finished:
             status = finished.code or 0
         else:
@@ -38,6 +40,7 @@ def main(argv: list[str]) -> int:
         "compile_cpu_seconds": log.cpu_seconds,
         "kernels_compiled": log.kernel_count,
         "compiles": [entry.to_json() for entry in log.records],
+        "wait_seconds": log.wait_seconds,
     }
     Path(record_path).write_text(json.dumps(record), encoding="utf-8")
     return int(status)

@@ -21,6 +21,10 @@ scene's bounds and integration stages cost. The option reaches the kernel's call
 compiled without reference counting too (a second time, if allocating kernels call them as
 well), so such a kernel cannot call one that allocates.
 
+Processes sharing the cache compile a kernel one at a time (:mod:`._kernel_lock`): the
+second loads what the first compiled, which is what lets helper processes compile a first
+run's kernels beside it (:mod:`.compile_helpers`).
+
 A large kernel that several kernels call is declared ``separate=True``: callers reach it through
 a pointer cell instead of linking its code into theirs, so LLVM optimises and emits it once
 instead of once per caller on every path above it (:mod:`._separate`).
@@ -39,7 +43,7 @@ import hashlib
 from pathlib import Path
 
 import numba
-from numba.core import types
+from numba.core import sigutils, types
 from numba.core.caching import (
     CompileResultCacheImpl,
     FunctionCache,
@@ -50,6 +54,7 @@ from numba.core.caching import (
 )
 from numba.core.registry import CPUDispatcher
 
+from thesis_rbd._kernel_lock import kernel_lock
 from thesis_rbd._separate import MissingSeparateKernel, SeparateKernelType, register, resolve_cells
 
 __all__ = ["njit", "package_source_hash"]
@@ -128,6 +133,15 @@ class _TypeDispatcher(CPUDispatcher):
 
     def enable_caching(self):
         self._cache = _PackageFunctionCache(self.py_func)
+
+    def compile(self, sig):
+        """numba's compile (or load from the cache), one process at a time per kernel and
+        argument types (:mod:`._kernel_lock`)."""
+        args = tuple(sigutils.normalize_signature(sig)[0])
+        if args in self.overloads:
+            return self.overloads[args].entry_point
+        with kernel_lock(self, args):
+            return super().compile(sig)
 
 
 class _SeparateDispatcher(_TypeDispatcher):

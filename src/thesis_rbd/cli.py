@@ -40,6 +40,7 @@ from thesis_rbd import scenes as builtin_scenes
 from thesis_rbd._atomic import atomic_path, check_writable_folder
 from thesis_rbd._run_status import RunStatus
 from thesis_rbd._stage_ledger import StageLedger
+from thesis_rbd.compile_helpers import CompileHelpers
 from thesis_rbd.compile_log import CompileLog
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.scene import Scene, load_scene
@@ -58,6 +59,10 @@ app = typer.Typer(
 _HTML_HELP = "Write an offline playback page (.html; drawn by viser)."
 _GIF_HELP = "Write an animated GIF (needs matplotlib)."
 _FPS_HELP = "GIF frames per simulated second."
+_HELPERS_HELP = (
+    "Processes that compile kernels beside a first run, each a share of the scene's kernels; "
+    "one per spare core by default, 0 for none."
+)
 _QUIET_HELP = "Print nothing but errors."
 WARMUP_SLOWEST = 10
 
@@ -153,8 +158,18 @@ def _describe_scene(scene: Scene) -> str:
     return "\n".join(lines)
 
 
+def _planned_scenes(argument: str) -> list[str] | None:
+    """The compile plans a run of ``argument`` shares among helpers: the built-in scene's own,
+    or, for a scene file, every built-in scene's (its kernels are among theirs)."""
+    return [argument] if argument in builtin_scenes.names() else None
+
+
 def _summary(
-    trajectory: Trajectory, wall_seconds: float, log: CompileLog, ledger: StageLedger
+    trajectory: Trajectory,
+    wall_seconds: float,
+    log: CompileLog,
+    ledger: StageLedger,
+    helpers: int = 0,
 ) -> str:
     """The run in a line, the time spent compiling kernels if any, and a line per stage.
 
@@ -170,11 +185,16 @@ def _summary(
     ]
     profile = ledger.without_compiling(meta["profile"])
     staged_wall = wall_seconds
-    if log.records:
+    if log.records or log.waits:
         staged_wall = max(wall_seconds - ledger.compiling_wall, 0.0)
+        beside = (
+            f", with {helpers} helper process{'es' if helpers > 1 else ''} compiling beside it"
+            if helpers
+            else ""
+        )
         lines.append(
             f"  compiling kernels, first run only: {log.seconds:.3f} s for "
-            f"{_kernels(log.kernel_count)} (numba caches them for later runs)"
+            f"{_kernels(log.kernel_count)}{beside} (numba caches them for later runs)"
         )
         if ledger.compiling_steps:
             steps = ledger.compiling_steps
@@ -235,6 +255,9 @@ def run(
     verbose: Annotated[
         bool, typer.Option("--verbose", "-v", help="Describe the scene and its stages first.")
     ] = False,
+    compile_helpers: Annotated[
+        int | None, typer.Option("--compile-helpers", help=_HELPERS_HELP, min=0)
+    ] = None,
 ) -> None:
     """Run a scene and report where the time went; optionally save and play it back."""
     with _reported_errors():
@@ -259,9 +282,12 @@ def run(
         _check_outputs(out, html, gif)
         status = RunStatus(loaded.name, enabled=not quiet)
         try:
-            with CompileLog(
-                on_start=status.compiling, on_end=lambda _record: status.compiling(None)
-            ) as log:
+            with (
+                CompileLog(
+                    on_start=status.compiling, on_end=lambda _record: status.compiling(None)
+                ) as log,
+                CompileHelpers(_planned_scenes(scene), compile_helpers) as helpers,
+            ):
                 start = perf_counter()
                 world = loaded.build()
                 if verbose and not quiet:
@@ -290,7 +316,7 @@ def run(
         _write_outputs(trajectory, out, html, gif, fps, loaded.name)
 
     if not quiet:
-        typer.echo(_summary(trajectory, wall, log, ledger))
+        typer.echo(_summary(trajectory, wall, log, ledger, helpers.started))
         written = [str(path) for path in (out, html, gif) if path is not None]
         if written:
             recorded = (
@@ -320,6 +346,9 @@ def view(
     paused: Annotated[
         bool, typer.Option("--paused", help="Start paused (press Play on the page).")
     ] = False,
+    compile_helpers: Annotated[
+        int | None, typer.Option("--compile-helpers", help=_HELPERS_HELP, min=0)
+    ] = None,
 ) -> None:
     """Simulate a scene live in the browser: play, pause, step, reset, speed, contacts, timings.
 
@@ -335,13 +364,17 @@ def view(
     status = RunStatus(loaded.name)
     live = None
     try:
-        with _reported_errors():
-            live = LiveView(
-                loaded, host=host, port=port, playing=not paused, on_compile=status.compiling
-            )
-        typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
-        with _ctrl_c_stops(live):
-            live.run()
+        with (
+            CompileLog(on_start=status.compiling, on_end=lambda _record: status.compiling(None)),
+            CompileHelpers(_planned_scenes(scene), compile_helpers),
+        ):
+            with _reported_errors():
+                live = LiveView(
+                    loaded, host=host, port=port, playing=not paused, on_compile=status.compiling
+                )
+            typer.echo(f"thesis-rbd view: {loaded.name} at {live.url} (Ctrl-C stops it)")
+            with _ctrl_c_stops(live):
+                live.run()
     except KeyboardInterrupt:
         pass  # Ctrl-C is how the view is meant to end
     finally:
@@ -376,15 +409,22 @@ def _ctrl_c_stops(live):
 @app.command()
 def warmup(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help=_QUIET_HELP)] = False,
+    compile_helpers: Annotated[
+        int | None, typer.Option("--compile-helpers", help=_HELPERS_HELP, min=0)
+    ] = None,
 ) -> None:
     """Compile every kernel ahead: minutes once, then every run starts in a second or two.
 
     Runs each built-in scene for a simulated second and the collision queries once; numba keeps
     what it compiles in its cache. Reports each part's time and the slowest kernels.
     """
-    from thesis_rbd.warmup import slowest_kernels, warm_up, warmup_tasks
+    from thesis_rbd.warmup import WarmupTask, slowest_kernels, warm_up, warmup_tasks
 
+    helpers = CompileHelpers(None, compile_helpers)
     tasks = warmup_tasks()
+    if helpers.helpers:
+        together = f"every scene's kernels, {helpers.helpers + 1} processes at once"
+        tasks.insert(0, WarmupTask(together, helpers.start))
     status = RunStatus("warm-up", enabled=not quiet, unit="parts", after_seconds=0.0)
     done = 0
 
@@ -402,6 +442,7 @@ def warmup(
     try:
         results = warm_up(tasks, on_start=started, on_compile=status.compiling, on_end=finished)
     finally:
+        helpers.stop()
         status.close()
     if quiet:
         return

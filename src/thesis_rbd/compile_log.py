@@ -8,6 +8,11 @@ kernels it calls on the way, inside its own event, so the events nest: a record'
 include the callees compiled within it, its ``own_seconds`` do not, and the time spent
 compiling is the sum of the outermost records' ``seconds``.
 
+Where helper processes compile a first run's kernels beside it (:mod:`.compile_helpers`), the
+run may wait for a kernel that a helper is compiling (:mod:`._kernel_lock` announces the wait
+with an event of its own); those waits are recorded apart, in ``waits``, and count as time
+spent compiling.
+
 >>> with CompileLog() as log:
 ...     world.step()
 >>> log.seconds, [record.name for record in log.slowest(5)]
@@ -21,6 +26,8 @@ from dataclasses import dataclass
 from time import perf_counter, process_time
 
 from numba.core import event
+
+from thesis_rbd._kernel_lock import WAIT_EVENT
 
 __all__ = ["CompileLog", "KernelCompile"]
 
@@ -78,6 +85,7 @@ class _OpenCompile:
     cpu_start: float
     callee_seconds: float = 0.0
     callee_cpu_seconds: float = 0.0
+    waiting: bool = False
 
 
 class CompileLog(event.Listener):
@@ -86,15 +94,19 @@ class CompileLog(event.Listener):
     Parameters
     ----------
     on_start : callable(name), optional
-        Called when a kernel starts compiling (outermost compiles only), with its name; the
-        command line shows a spinner from here.
+        Called when a kernel starts compiling (outermost compiles and waits only), with its
+        name; the command line shows a spinner from here.
     on_end : callable(record), optional
-        Called with the :class:`KernelCompile` of each outermost compile once it has ended.
+        Called with the :class:`KernelCompile` of each outermost compile (or wait) once it
+        has ended.
 
     Attributes
     ----------
     records : list of KernelCompile
         Every compile so far, in the order they ended (callees before their callers).
+    waits : list of KernelCompile
+        Every wait for a kernel that another process was compiling, as records of their own
+        (their ``own_seconds`` are the wait).
     """
 
     def __init__(
@@ -103,6 +115,7 @@ class CompileLog(event.Listener):
         on_end: Callable[[KernelCompile], None] | None = None,
     ):
         self.records: list[KernelCompile] = []
+        self.waits: list[KernelCompile] = []
         self._on_start, self._on_end = on_start, on_end
         # numba compiles under one global lock, so events arrive one compile at a time; the
         # stack of open compiles is still guarded, as callbacks run on the compiling thread
@@ -111,10 +124,12 @@ class CompileLog(event.Listener):
 
     def __enter__(self) -> CompileLog:
         event.register(_COMPILE_EVENT, self)
+        event.register(WAIT_EVENT, self)
         return self
 
     def __exit__(self, *exc_info) -> None:
         event.unregister(_COMPILE_EVENT, self)
+        event.unregister(WAIT_EVENT, self)
 
     # numba's Listener interface
     def on_start(self, evt: event.Event) -> None:
@@ -124,7 +139,11 @@ class CompileLog(event.Listener):
         signature = "(" + ", ".join(str(arg) for arg in data["args"]) + ")"
         with self._lock:
             outermost = not self._open
-            self._open.append(_OpenCompile(name, signature, perf_counter(), process_time()))
+            self._open.append(
+                _OpenCompile(
+                    name, signature, perf_counter(), process_time(), waiting=evt.kind == WAIT_EVENT
+                )
+            )
         if outermost and self._on_start is not None:
             self._on_start(name)
 
@@ -145,7 +164,7 @@ class CompileLog(event.Listener):
             if self._open:
                 self._open[-1].callee_seconds += seconds
                 self._open[-1].callee_cpu_seconds += cpu_seconds
-            self.records.append(record)
+            (self.waits if opened.waiting else self.records).append(record)
         if record.depth == 0 and self._on_end is not None:
             self._on_end(record)
 
@@ -157,13 +176,19 @@ class CompileLog(event.Listener):
 
     @property
     def seconds(self) -> float:
-        """Wall time spent compiling: the sum of the outermost compiles."""
-        return sum(record.seconds for record in self.records if record.depth == 0)
+        """Wall time spent compiling: the sum of the outermost compiles and waits for them."""
+        return sum(record.seconds for record in self.records + self.waits if record.depth == 0)
 
     @property
     def cpu_seconds(self) -> float:
-        """Processor time spent compiling: the sum of the outermost compiles'."""
-        return sum(record.cpu_seconds for record in self.records if record.depth == 0)
+        """Processor time spent compiling: the sum of the outermost compiles' (and waits')."""
+        return sum(record.cpu_seconds for record in self.records + self.waits if record.depth == 0)
+
+    @property
+    def wait_seconds(self) -> float:
+        """Wall time spent waiting, outside any compile of this process, for kernels that
+        other processes were compiling."""
+        return sum(record.seconds for record in self.waits if record.depth == 0)
 
     @property
     def kernel_count(self) -> int:
