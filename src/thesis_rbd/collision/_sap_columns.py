@@ -28,7 +28,7 @@ from thesis_rbd._jit import njit
 __all__ = ["build_axes", "merge_records", "new_records", "rebin_axis"]
 
 
-@njit
+@njit(separate=True)
 def _sort_records(rv, re, rc):
     """Records ``(value, code, column)`` sorted by the key (column, value, is_end)."""
     # Three stable passes: begins before ends, then by value, then by column. The integer
@@ -137,7 +137,7 @@ def merge_records(val, ep, col, count, a, rv, re, rc):
     return val, ep, col
 
 
-@njit
+@njit(separate=True)
 def rebin_axis(old_box, cells_b, cells_c, grid, val, ep, col, count, rng, moved, a):
     """Move the records of axis ``a`` into the columns of the current cells, keeping order.
 

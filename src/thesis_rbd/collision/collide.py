@@ -203,7 +203,7 @@ def _grown(stack, top):
     return bigger
 
 
-@njit
+@njit(separate=True)
 def traverse(first_only, Pa, Pb, T_a, T_b):
     """Walk two trees; return (pairs (k, 2) int64, bv_tests, tri_box_tests, tri_tests).
 

@@ -106,7 +106,7 @@ def box_frame(vertices, planes, edges, size) -> tuple[np.ndarray, np.ndarray] | 
     return frame, features
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def box_box_query(frames, features, ha, hb, R, t, tie):
     """Separating-axis test of box hulls ha and hb in closed form, in A's hull frame.
 
@@ -291,7 +291,7 @@ def _face_corners(frames, h, k, sign, R, t, turned, out):
     return sign * (nx * cx + ny * cy + nz * cz)
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def box_face_contacts(
     frames, features, ha, hb, kind, face, R, t, margin, apart, tolerance, flat,
     reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,

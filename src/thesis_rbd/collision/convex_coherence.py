@@ -60,7 +60,7 @@ def _deep_under_other_faces(H, h_ref, face, x, y, z, depth):
     return True
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def certify_face_axis(H, ha, hb, R, t, kind, face, start, tie, M, c):
     """Whether last step's face axis (``kind`` FACE_A or FACE_B, ``face``) is provably the
     separating-axis test's answer for hulls A and B now, and that answer.

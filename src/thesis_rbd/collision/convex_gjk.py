@@ -277,7 +277,7 @@ def _thickness(P):
     return volume / largest if largest > 0.0 else 0.0
 
 
-@njit
+@njit(separate=True)
 def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance, margin):
     """GJK from the direction -v: (status, vx, vy, vz, bound).
 
@@ -327,7 +327,7 @@ def _face_plane(V, a, b, c, out, f):
     return True
 
 
-@njit
+@njit(separate=True)
 def _epa(H, ha, hb, R, t, P, ia, ib, scratch, tolerance):
     """EPA from the tetrahedron P[:4] around the origin.
 
@@ -431,7 +431,7 @@ def _rotate(R, x, y, z):
     )
 
 
-@njit
+@njit(separate=True)
 def _exact_axis(H, ha, hb, R, t, corners_a, corners_b, tie, px, py, pz):
     """Largest separation over the features around the given vertices of A and of B.
 

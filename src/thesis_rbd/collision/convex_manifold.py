@@ -95,7 +95,7 @@ def _clip(src, src_tag, src_label, count, distance, plane, dst, dst_tag, dst_lab
     return out
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def clip_incident_face(
     reference, reference_count, nx, ny, nz, d, incident, incident_count, parallel, margin,
     tolerance, points, tags, spare, spare_tags, labels, spare_labels, distance,
@@ -223,7 +223,7 @@ def _best_quad_from(points, count, first, sign, nx, ny, nz):
 _TIED_TRIES = 8
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def four_corners(points, depths, count, nx, ny, nz, tie, keep):
     """At most four corners of a convex polygon: the deepest and the largest-area three more.
 
@@ -312,7 +312,7 @@ def edge_contact_point(pa, qa, pb, qb):
     return 0.5 * (ux + vx), 0.5 * (uy + vy), 0.5 * (uz + vz), gap2
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def emit_face_contacts(
     points, tags, depths, count, nx, ny, nz, d, kind, reference_face, incident_face,
     tolerance, flat, keep, Ri, ti, out_points, out_depths, out_features, c,

@@ -163,7 +163,7 @@ def _arc_signs(planes, face_count, arcs, edge_count, out, by_edge):
                 out[f, e] = s
 
 
-@njit
+@njit(separate=True)
 def sat_query(
     vertices_a, planes_a, edges_a, faces_a, arcs_a, centroid_a,
     vertices_b, planes_b, edges_b, faces_b, arcs_b,

@@ -192,7 +192,7 @@ def _children(P, L, x):
     return c0, c1, 2
 
 
-@njit
+@njit(separate=True)
 def mesh_distance(Pa, Pb, Mab, tab):
     """Least distance between two packed trees, B placed in A's mesh frame by (Mab, tab).
 

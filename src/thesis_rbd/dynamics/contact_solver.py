@@ -192,7 +192,7 @@ def delassus_matrix(contacts, bodies):
     return A
 
 
-@njit
+@njit(separate=True)
 def _stewart_trinkle_lcp(A, u, bias, friction, sides):
     """LCP(M, q) of the polyhedral-cone contact problem and the map back to (c, 3) impulses.
 
@@ -289,7 +289,7 @@ def _lcp_residual(M, q, z, velocity_floor):
 _PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
 
-@njit
+@njit(separate=True)
 def solve_exact(
     sides, contacts, bias, friction, bodies, impulse, velocity_scale, pgs_fallback_iterations=200
 ):

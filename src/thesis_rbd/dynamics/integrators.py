@@ -127,7 +127,7 @@ def _scale4(b, a):
     return (b * a[0], b * a[1], b * a[2], b * a[3])
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def integrate_bodies(
     method,
     dt,

@@ -182,7 +182,7 @@ def solve_islands(
             impulse[k, 0] += extra
 
 
-@njit
+@njit(separate=True)
 def correct_positions(
     settings, island_start, body_a, body_b, basis, rows, push, tolerance, inverse_mass,
     position, orientation,

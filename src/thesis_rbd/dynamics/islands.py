@@ -15,7 +15,7 @@ from thesis_rbd._union_find import find_root, join
 __all__ = ["find_islands", "order_from_the_top"]
 
 
-@njit
+@njit(separate=True)
 def find_islands(body_count, body_a, body_b, static):
     """Label bodies and contacts by island.
 
@@ -74,7 +74,7 @@ def find_islands(body_count, body_a, body_b, static):
     return body_island, contact_order, island_start
 
 
-@njit
+@njit(separate=True)
 def order_from_the_top(body_count, body_a, body_b, static, contact_order, island_start):
     """Re-order each island's contacts so that those furthest from a static support come first.
 

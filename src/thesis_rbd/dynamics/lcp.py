@@ -76,7 +76,7 @@ def _lexicographic_ratio_test(T, basis, entering, n, artificial, pivot_tolerance
     return candidates[0]
 
 
-@njit
+@njit(separate=True)
 def lemke(M, q, max_pivots=0, pivot_tolerance=1e-7):
     """Solve LCP(M, q) by Lemke's method with the covering vector d = 1.
 

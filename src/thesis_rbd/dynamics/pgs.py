@@ -108,7 +108,7 @@ def project_onto_polygon(x1, x2, radius, polygon):
     return p1 + s * e1, p2 + s * e2
 
 
-@njit
+@njit(separate=True)
 def build_rows(body_a, body_b, arm_a, arm_b, basis, inverse_mass, inverse_inertia):
     """Angular Jacobian parts, their inertia images and the step sizes of every contact.
 
@@ -269,7 +269,7 @@ def sweep_island(
     )  # fmt: skip
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def run_sweeps(
     start, stop, iterations, tolerance, polygon, body_a, body_b, basis, angular_a, angular_b,
     response_a, response_b, normal_step, tangent_step, coupling, inverse_mass, bias, friction,

@@ -65,7 +65,7 @@ def _island_velocity(k, d, basis, angular_a, angular_b, a, b, v, w):
     )  # fmt: skip
 
 
-@njit(allocates=False)
+@njit(allocates=False, separate=True)
 def subspace_step(
     start, stop, cg_iterations, polygon, body_a, body_b, basis, angular_a, angular_b,
     response_a, response_b, normal_step, tangent_step, inverse_mass, bias, friction, velocity,
