@@ -78,7 +78,7 @@ def main() -> None:
 
     sys.path.insert(0, str(ROOT / "src"))
     from thesis_rbd import scenes
-    from thesis_rbd.compile_plan import PLAN_PATH, CompilePlan, PlannedCompile, decode_type
+    from thesis_rbd.compile_plan import PLAN_PATH, CompilePlan, PlannedCompile
 
     names = scenes.names()
     with tempfile.TemporaryDirectory() as scratch:
@@ -99,10 +99,7 @@ def main() -> None:
         plan_scenes[name] = order
         print(f"{name}: {len(order)} compiles", file=sys.stderr)
     plan = CompilePlan(
-        [
-            PlannedCompile(module, qualname, tuple(decode_type(arg) for arg in args))
-            for module, qualname, args in compiles
-        ],
+        [PlannedCompile(module, qualname, tuple(args)) for module, qualname, args in compiles],
         plan_scenes,
     )
     PLAN_PATH.write_text(json.dumps(plan.to_json(), separators=(",", ":")) + "\n")

@@ -17,7 +17,7 @@ from __future__ import annotations
 import importlib
 import json
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 
 from numba.core import types
@@ -112,12 +112,19 @@ class PlannedCompile:
     ----------
     module, qualname : str
         Where the kernel's Python function is defined.
-    args : tuple of numba types
+    spelled_args : tuple
+        The argument types as the plan writes them (:func:`encode_type`).
     """
 
     module: str
     qualname: str
-    args: tuple
+    spelled_args: tuple
+
+    @cached_property
+    def args(self) -> tuple:
+        """The argument types as numba types, decoded on first use: a warm run decodes only
+        the entry it checks the cache for."""
+        return tuple(decode_type(arg) for arg in self.spelled_args)
 
     @property
     def kernel(self) -> str:
@@ -140,16 +147,11 @@ class PlannedCompile:
         return found
 
     def to_json(self) -> dict:
-        return {
-            "module": self.module,
-            "qualname": self.qualname,
-            "args": [encode_type(arg) for arg in self.args],
-        }
+        return {"module": self.module, "qualname": self.qualname, "args": list(self.spelled_args)}
 
     @classmethod
     def from_json(cls, entry: dict) -> PlannedCompile:
-        args = tuple(decode_type(arg) for arg in entry["args"])
-        return cls(entry["module"], entry["qualname"], args)
+        return cls(entry["module"], entry["qualname"], tuple(entry["args"]))
 
 
 @dataclass(frozen=True)
