@@ -143,6 +143,11 @@ class _TypeDispatcher(CPUDispatcher):
         with kernel_lock(self, args):
             return super().compile(sig)
 
+    def cached_signatures(self) -> list[tuple]:
+        """Argument types of every version in the on-disk cache (fresh entries only): what a
+        cached caller's cell may name, and what a first run need not compile."""
+        return [key[0] for key in self._cache._cache_file._load_index()]
+
 
 class _SeparateDispatcher(_TypeDispatcher):
     """A kernel that other kernels call through its cell, unlinked (:mod:`._separate`)."""
@@ -150,11 +155,6 @@ class _SeparateDispatcher(_TypeDispatcher):
     @property
     def _numba_type_(self):
         return SeparateKernelType(self)
-
-    def cached_signatures(self) -> list[tuple]:
-        """Argument types of every version in the on-disk cache (fresh entries only): what a
-        cached caller's cell may name."""
-        return [key[0] for key in self._cache._cache_file._load_index()]
 
 
 def njit(func=None, allocates=True, separate=False, **options):

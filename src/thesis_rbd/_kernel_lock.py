@@ -110,7 +110,8 @@ def kernel_lock(dispatcher, args: tuple, wait: bool = True) -> Iterator[bool]:
             last = _held[key] == 0
             if last:
                 del _held[key]
-        if last and acquired is True and not nested:
+        # a nested hold never brings the count to 0: only the outermost one unlocks
+        if last and acquired is True:
             fcntl.lockf(descriptor, fcntl.LOCK_UN, 1, key[1])
 
 

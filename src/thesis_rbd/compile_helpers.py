@@ -37,15 +37,14 @@ def spare_cores() -> int:
 
 
 def _is_cached(entry: PlannedCompile) -> bool:
-    """Whether the kernel is compiled in this process or in numba's cache (a stale entry
-    counts as cached: there is nothing to compile ahead for it)."""
+    """Whether the kernel is compiled in this process or listed in numba's cache index (a
+    stale entry counts as cached: there is nothing to compile ahead for it). Read from the
+    index, not loaded: the run loads it when it calls it."""
     try:
         dispatcher = entry.dispatcher()
     except LookupError:
         return True
-    if entry.args in dispatcher.overloads:
-        return True
-    return dispatcher._cache.load_overload(entry.args, dispatcher.targetctx) is not None
+    return entry.args in dispatcher.overloads or entry.args in dispatcher.cached_signatures()
 
 
 def compile_planned(entries: list[PlannedCompile]) -> int:
