@@ -204,3 +204,53 @@ def test_fortran_ordered_and_readonly_poses_give_the_same_answer():
     readonly.flags.writeable = False
     for T in (fortran, readonly, T_b.tolist()):
         np.testing.assert_array_equal(rbd.collide(tree, np.eye(4), tree, T, mode="all").pairs, want)
+
+
+@settings(max_examples=examples(20))
+@given(
+    kind_a=st.sampled_from(MESH_KINDS),
+    kind_b=st.sampled_from(MESH_KINDS),
+    seed=st.integers(0, 2**31),
+    variant_a=st.sampled_from(VARIANTS),
+    variant_b=st.sampled_from(VARIANTS),
+)
+def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
+    kind_a, kind_b, seed, variant_a, variant_b
+):
+    """The traversal stops, its state intact, when its stack or its pair rows are full, and
+    the caller resumes it with a larger copy: started with room for two stack rows and one
+    pair, so it stops and resumes over and over, it must still find exactly the brute-force
+    pairs (and the first pair in "first" mode)."""
+    from thesis_rbd.collision._query_args import relative_pose
+    from thesis_rbd.collision.collide import walk
+    from thesis_rbd.collision.packed import layout
+
+    mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
+    P_a = rbd.OBBTree(mesh_a, **variant_a).query_array()
+    P_b = rbd.OBBTree(mesh_b, **variant_b).query_array()
+    La, Lb = layout(P_a), layout(P_b)
+    M, t = relative_pose(np.asarray(T_a, dtype=np.float64), np.asarray(T_b, dtype=np.float64))
+    expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
+    for first_only in (False, True):
+        stack = np.empty((2, 2), dtype=np.int64)
+        stack[0] = La[6], Lb[6]
+        pairs = np.empty((1, 2), dtype=np.int64)
+        counts = np.zeros(3, dtype=np.int64)
+        top, found, stops = 1, 0, 0
+        while True:
+            top, found = walk(first_only, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts)
+            if top == 0 or (first_only and found):
+                break
+            stops += 1
+            if found == len(pairs):
+                pairs = np.concatenate([pairs, np.empty_like(pairs)])
+            else:
+                stack = np.concatenate([stack, np.empty_like(stack)])
+        # Any descent fills a two-row stack.
+        assert stops > 0 or len(expected) == 0 or La[6] < 0 or Lb[6] < 0
+        if first_only:
+            assert found == min(1, len(expected))
+            if found:
+                assert tuple(pairs[0]) in set(map(tuple, expected))
+        else:
+            np.testing.assert_array_equal(_sorted(pairs[:found]), expected)

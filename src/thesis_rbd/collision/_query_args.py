@@ -11,6 +11,8 @@ That keeps one compiled version per kernel and well under a microsecond of Pytho
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from thesis_rbd._jit import njit
@@ -73,9 +75,11 @@ def as_pose(T, name: str) -> np.ndarray:
     return np.array(as_rigid_transform(T, name), dtype=np.float64, order="C")
 
 
-def as_pose_stack(T, name: str) -> np.ndarray:
+def as_pose_stack(T, name: str, checked: bool = True) -> np.ndarray:
     """``T`` as a (k, 4, 4) float64 stack of rigid transforms for a kernel (a lone (4, 4) pose
     gives k = 1); copied only if it is not a writable, C-contiguous float64 array already.
+    ``checked=False`` leaves the rigid-transform check of each pose to a kernel that makes
+    it as it reads the pose (and calls this again with the check when one fails).
 
     Raises
     ------
@@ -96,7 +100,7 @@ def as_pose_stack(T, name: str) -> np.ndarray:
         raise ValueError(f"{name} must hold at least one pose, got shape {shape}")
     flags = array.flags
     stack = array if flags.c_contiguous and flags.writeable else np.array(array, order="C")
-    bad = _first_bad_pose(stack)
+    bad = _first_bad_pose(stack) if checked else -1
     if bad >= 0:
         label = name if len(shape) == 2 else f"{name}[{bad}]"
         as_rigid_transform(stack[bad], label)
@@ -105,31 +109,38 @@ def as_pose_stack(T, name: str) -> np.ndarray:
 
 
 @njit
+def _gram_ok(T, i, j, tol):
+    """Whether columns i and j of T's rotation have the dot product of an orthonormal basis."""
+    s = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
+    return abs(s - (1.0 if i == j else 0.0)) <= tol
+
+
+@njit
 def pose_ok(T):
-    """Whether ``T`` is a (4, 4) finite rigid transform (``as_rigid_transform``'s criteria)."""
+    """Whether ``T`` is a (4, 4) finite rigid transform (``as_rigid_transform``'s criteria).
+
+    The criteria are and-ed without short-circuits: every pose a batch reads is checked, and
+    one branch costs less than the sixteen a test per entry took (NaN fails every comparison).
+    """
     if T.shape[0] != 4 or T.shape[1] != 4:
         return False
+    ok = True
     for i in range(4):
         for j in range(4):
-            if not np.isfinite(T[i, j]):
-                return False
+            ok &= math.isfinite(T[i, j])
     # np.allclose(T[3], (0, 0, 0, 1), atol=tol): |x - y| <= tol + 1e-5 |y|
     tol = RIGID_TOLERANCE
-    if abs(T[3, 0]) > tol or abs(T[3, 1]) > tol or abs(T[3, 2]) > tol:
-        return False
-    if abs(T[3, 3] - 1.0) > tol + 1e-5:
-        return False
-    for i in range(3):
-        for j in range(3):
-            s = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
-            if abs(s - (1.0 if i == j else 0.0)) > tol:
-                return False
+    ok &= (abs(T[3, 0]) <= tol) & (abs(T[3, 1]) <= tol) & (abs(T[3, 2]) <= tol)
+    ok &= abs(T[3, 3] - 1.0) <= tol + 1e-5
+    # R^T R = I: the dot products of column pairs, each pair once (the products commute).
+    ok &= _gram_ok(T, 0, 0, tol) & _gram_ok(T, 1, 1, tol) & _gram_ok(T, 2, 2, tol)
+    ok &= _gram_ok(T, 0, 1, tol) & _gram_ok(T, 0, 2, tol) & _gram_ok(T, 1, 2, tol)
     det = (
         T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1])
         - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
         + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0])
     )
-    return det >= 0.0
+    return ok & (det >= 0.0)
 
 
 @njit

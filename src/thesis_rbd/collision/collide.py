@@ -104,7 +104,7 @@ class CollisionResult:
         return f"CollisionResult(colliding={self.colliding}, pairs={len(self.pairs)}{extra})"
 
 
-@njit
+@njit(allocates=False)
 def _boxes_disjoint(x, P, L, g, c, b):
     """OBB test of box x of tree (P, L) against a box already carried into its mesh frame.
 
@@ -116,7 +116,7 @@ def _boxes_disjoint(x, P, L, g, c, b):
     return obb_disjoint(R, T, half_extent(P, L, x), b)
 
 
-@njit
+@njit(allocates=False)
 def _carried_centre(P, L, k, M, tr):
     """Centre of box k of tree (P, L) mapped by ``x -> M x + tr`` (M row-major)."""
     c = L[0] + k
@@ -127,16 +127,17 @@ def _carried_centre(P, L, k, M, tr):
     )
 
 
-@njit
+@njit(allocates=False)
 def _centre_distance2(P, L, k, o):
     """Squared distance from the centre of box k of tree (P, L) to the point ``o``."""
     c = L[0] + k
     return (P[c, 0] - o[0]) ** 2 + (P[c, 1] - o[1]) ** 2 + (P[c, 2] - o[2]) ** 2
 
 
-@njit
-def _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
-    return tri_tri_overlap(
+@njit(allocates=False)
+def _pair_corners(ta, tb, Pa, La, Pb, Lb, Mab, tab):
+    """Corners of triangle ta of A and of triangle tb of B carried into A's frame."""
+    return (
         corner(Pa, La, ta, 0),
         corner(Pa, La, ta, 1),
         corner(Pa, La, ta, 2),
@@ -147,18 +148,26 @@ def _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
 
 
 @njit
-def faces_intersect(Pa, Pb, T_a, T_b, face_a, face_b):
-    """Whether face ``face_a`` of A and ``face_b`` of B intersect at poses T_a, T_b.
-
-    The triangle test :func:`traverse` makes, on the relative pose it forms: a pair that the
-    traversal reports at a pose passes here at that pose, and a pair that passes here is one
-    the traversal would reach (its boxes overlap, so it is never pruned).
-    """
-    Mab, tab = relative_pose(T_a, T_b)
-    return _tri_pair(face_a, face_b, Pa, layout(Pa), Pb, layout(Pb), Mab, tab)
+def _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
+    # The triangle test may allocate (exact predicates), its corners are read without
+    # reference counting the trees.
+    p0, p1, p2, q0, q1, q2 = _pair_corners(ta, tb, Pa, La, Pb, Lb, Mab, tab)
+    return tri_tri_overlap(p0, p1, p2, q0, q1, q2)
 
 
 @njit
+def faces_intersect(Pa, La, Pb, Lb, Mab, tab, face_a, face_b):
+    """Whether face ``face_a`` of A and ``face_b`` of B intersect, B's mesh frame mapped
+    into A's by ``x -> Mab x + tab`` (:func:`._query_args.relative_pose` of the poses).
+
+    The triangle test :func:`traverse` makes: a pair that the traversal reports at a pose
+    passes here at that pose, and a pair that passes here is one the traversal would reach
+    (its boxes overlap, so it is never pruned).
+    """
+    return _tri_pair(face_a, face_b, Pa, La, Pb, Lb, Mab, tab)
+
+
+@njit(allocates=False)
 def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
     """Triangle t of tree (P, L) (mapped by ``x -> R x + tr``) against box k of (Pk, Lk)."""
     ck = (Pk[Lk[0] + k, 0], Pk[Lk[0] + k, 1], Pk[Lk[0] + k, 2])
@@ -196,41 +205,31 @@ def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
 
 
 @njit
-def _grown(stack, top):
-    """The stack with twice the room (its first ``top`` rows kept)."""
-    bigger = np.empty((2 * stack.shape[0], 2), dtype=np.int64)
-    bigger[:top] = stack[:top]
-    return bigger
+def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts):
+    """Walk two trees from the code pairs ``stack[:top]``; return ``(top, n_pairs)``.
 
+    The traversal itself, over arrays the caller owns and never replaces: numba increfs and
+    decrefs an array variable that a loop may reassign on every pass (four atomic operations,
+    about half the cost of a box test), so the stack and the pair list are not grown here.
+    Trees are given as their packed arrays and layouts (:mod:`.packed`), B's mesh frame
+    mapped into A's by ``x -> Mab x + tab``. Found pairs are written to ``pairs[n_pairs:]``
+    (unsorted); ``counts`` (3,) int64 accumulates the box-box, triangle-box and triangle
+    tests. ``first_only`` stops at the first intersecting pair.
 
-@njit(separate=True)
-def traverse(first_only, Pa, Pb, T_a, T_b):
-    """Walk two trees; return (pairs (k, 2) int64, bv_tests, tri_box_tests, tri_tests).
-
-    Trees are given as their packed arrays (see :mod:`.packed`), which hold the boxes and the
-    mesh in its frame; ``T_a``, ``T_b`` (4, 4) are the poses (the relative one is formed
-    here, saving a kernel call per query). ``first_only`` stops at the first intersecting
-    pair. Pairs come unsorted.
+    The walk is done when the returned ``top`` is 0, or when ``first_only`` and a pair was
+    found. Otherwise it stopped, with its state intact, because ``pairs`` is full or the stack
+    has no room for the next split; the caller gives it a larger copy of that array and calls
+    again with the returned ``top`` and ``n_pairs``.
     """
-    La = layout(Pa)
-    Lb = layout(Pb)
     leafless_a = La[7]
     leafless_b = Lb[7]
-    # Transforms as tuples (registers, no aliasing with the tree arrays); the inverse one
-    # carries A's triangles into B's frame for B's boxes.
-    Mab, tab_t = relative_pose(T_a, T_b)
+    # The inverse transform carries A's triangles into B's frame for B's boxes.
     Mba = (Mab[0], Mab[3], Mab[6], Mab[1], Mab[4], Mab[7], Mab[2], Mab[5], Mab[8])
-    tba_t = (
-        -(Mba[0] * tab_t[0] + Mba[1] * tab_t[1] + Mba[2] * tab_t[2]),
-        -(Mba[3] * tab_t[0] + Mba[4] * tab_t[1] + Mba[5] * tab_t[2]),
-        -(Mba[6] * tab_t[0] + Mba[7] * tab_t[1] + Mba[8] * tab_t[2]),
+    tba = (
+        -(Mba[0] * tab[0] + Mba[1] * tab[1] + Mba[2] * tab[2]),
+        -(Mba[3] * tab[0] + Mba[4] * tab[1] + Mba[5] * tab[2]),
+        -(Mba[6] * tab[0] + Mba[7] * tab[1] + Mba[8] * tab[2]),
     )
-    pairs = np.empty((1 if first_only else 64, 2), dtype=np.int64)
-    n_pairs = 0
-    stack = np.empty((2 * (tree_depth(Pa) + tree_depth(Pb)) + 8, 2), dtype=np.int64)
-    stack[0, 0] = La[6]
-    stack[0, 1] = Lb[6]
-    top = 1
     bv_tests = 0
     box_tests = 0
     tri_tests = 0
@@ -238,7 +237,8 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
     hy = (0.0, 0.0, 0.0)
-    while top > 0:
+    # A pop frees one row and a split fills two: a split needs room for one more.
+    while top > 0 and top < stack.shape[0] and n_pairs < pairs.shape[0]:
         top -= 1
         x = stack[top, 0]
         y = stack[top, 1]
@@ -249,7 +249,7 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
             # B's box carried into A's frame is reused while y stays the same (A's children
             # are tested against it one after the other).
             if y != carried:
-                g, c = carry_box(y, Pb, Lb, Mab, tab_t)
+                g, c = carry_box(y, Pb, Lb, Mab, tab)
                 hy = half_extent(Pb, Lb, y)
                 carried = y
             if _boxes_disjoint(x, Pa, La, g, c, hy):
@@ -260,14 +260,12 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 ta = -child(Pa, La, x, 0) - 1
                 tb = -child(Pb, Lb, y, 0) - 1
             else:
-                if top + 2 > stack.shape[0]:
-                    stack = _grown(stack, top)
                 if a_leaf or (not b_leaf and node_size(Pb, Lb, y) > node_size(Pa, La, x)):
                     c0 = child(Pb, Lb, y, 0)
                     c1 = child(Pb, Lb, y, 1)
                     # "first": visit the child nearer the other box first (in B's frame).
                     if first_only and c0 >= 0 and c1 >= 0:
-                        o = _carried_centre(Pa, La, x, Mba, tba_t)
+                        o = _carried_centre(Pa, La, x, Mba, tba)
                         if _centre_distance2(Pb, Lb, c1, o) < _centre_distance2(Pb, Lb, c0, o):
                             c0, c1 = c1, c0
                     stack[top, 0] = x
@@ -278,7 +276,7 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                     c0 = child(Pa, La, x, 0)
                     c1 = child(Pa, La, x, 1)
                     if first_only and c0 >= 0 and c1 >= 0:
-                        o = _carried_centre(Pb, Lb, y, Mab, tab_t)
+                        o = _carried_centre(Pb, Lb, y, Mab, tab)
                         if _centre_distance2(Pa, La, c1, o) < _centre_distance2(Pa, La, c0, o):
                             c0, c1 = c1, c0
                     stack[top, 0] = c1
@@ -297,10 +295,8 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 tb = -child(Pb, Lb, y, 0) - 1
             else:
                 box_tests += 1
-                if not _tri_in_box(Pa, La, -x - 1, Mba, tba_t, Pb, Lb, y):
+                if not _tri_in_box(Pa, La, -x - 1, Mba, tba, Pb, Lb, y):
                     continue
-                if top + 2 > stack.shape[0]:
-                    stack = _grown(stack, top)
                 stack[top, 0] = x
                 stack[top, 1] = child(Pb, Lb, y, 1)
                 stack[top + 1, 0] = x
@@ -314,10 +310,8 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 tb = -y - 1
             else:
                 box_tests += 1
-                if not _tri_in_box(Pb, Lb, -y - 1, Mab, tab_t, Pa, La, x):
+                if not _tri_in_box(Pb, Lb, -y - 1, Mab, tab, Pa, La, x):
                     continue
-                if top + 2 > stack.shape[0]:
-                    stack = _grown(stack, top)
                 stack[top, 0] = child(Pa, La, x, 1)
                 stack[top, 1] = y
                 stack[top + 1, 0] = child(Pa, La, x, 0)
@@ -326,17 +320,60 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
                 continue
         # A triangle pair.
         tri_tests += 1
-        if _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab_t):
-            if n_pairs == pairs.shape[0]:
-                bigger = np.empty((2 * pairs.shape[0], 2), dtype=np.int64)
-                bigger[:n_pairs] = pairs[:n_pairs]
-                pairs = bigger
+        if _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
             pairs[n_pairs, 0] = ta
             pairs[n_pairs, 1] = tb
             n_pairs += 1
             if first_only:
                 break
-    return pairs[:n_pairs], bv_tests, box_tests, tri_tests
+    counts[0] += bv_tests
+    counts[1] += box_tests
+    counts[2] += tri_tests
+    return top, n_pairs
+
+
+@njit
+def walk_stack(Pa, Pb):
+    """A stack for :func:`walk` over trees (Pa, Pb), with room for the deepest descent: a
+    split moves one tree a level down, so a descent adds at most one row per level."""
+    return np.empty((tree_depth(Pa) + tree_depth(Pb) + 8, 2), dtype=np.int64)
+
+
+@njit
+def _with_room(rows):
+    """A copy of ``rows`` (k, 2) int64 with room for 2 k."""
+    bigger = np.empty((2 * rows.shape[0], 2), dtype=np.int64)
+    bigger[: rows.shape[0]] = rows
+    return bigger
+
+
+@njit(separate=True)
+def traverse(first_only, Pa, Pb, T_a, T_b):
+    """Walk two trees; return (pairs (k, 2) int64, bv_tests, tri_box_tests, tri_tests).
+
+    Trees are given as their packed arrays (see :mod:`.packed`), which hold the boxes and the
+    mesh in its frame; ``T_a``, ``T_b`` (4, 4) are the poses (the relative one is formed
+    here, saving a kernel call per query). ``first_only`` stops at the first intersecting
+    pair. Pairs come unsorted.
+    """
+    La = layout(Pa)
+    Lb = layout(Pb)
+    Mab, tab = relative_pose(T_a, T_b)
+    stack = walk_stack(Pa, Pb)
+    stack[0, 0] = La[6]
+    stack[0, 1] = Lb[6]
+    pairs = np.empty((1 if first_only else 64, 2), dtype=np.int64)
+    counts = np.zeros(3, dtype=np.int64)
+    top, n_pairs = walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, 1, pairs, 0, counts)
+    while top > 0 and not (first_only and n_pairs > 0):
+        if n_pairs == pairs.shape[0]:
+            pairs = _with_room(pairs)
+        else:
+            stack = _with_room(stack)
+        top, n_pairs = walk(
+            first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts
+        )
+    return pairs[:n_pairs], counts[0], counts[1], counts[2]
 
 
 @njit
@@ -368,18 +405,16 @@ def _to_world(points, normals, T):
     return P, N
 
 
-@njit
-def roots_disjoint(Pa, Pb, T_a, T_b):
-    """Whether the root boxes of two trees (both nodes) are disjoint at poses T_a, T_b.
+@njit(allocates=False)
+def roots_disjoint(Pa, La, Pb, Lb, Mab, tab):
+    """Whether the root boxes of two trees (both nodes) are disjoint, B's mesh frame mapped
+    into A's by ``x -> Mab x + tab``.
 
     The test :func:`traverse` makes first, done without allocating anything: queries that
     miss at the root (most of a motion planner's) end here.
     """
-    La = layout(Pa)
-    Lb = layout(Pb)
     if La[6] < 0 or Lb[6] < 0:
         return False
-    Mab, tab = relative_pose(T_a, T_b)
     g, c = carry_box(Lb[6], Pb, Lb, Mab, tab)
     return _boxes_disjoint(La[6], Pa, La, g, c, half_extent(Pb, Lb, Lb[6]))
 
@@ -396,7 +431,8 @@ def _first_kernel(P_a, T_a, P_b, T_b):
         return 1, -1, -1, 0, 0, 0
     if not pose_ok(T_b):
         return 2, -1, -1, 0, 0, 0
-    if roots_disjoint(P_a, P_b, T_a, T_b):
+    Mab, tab = relative_pose(T_a, T_b)
+    if roots_disjoint(P_a, layout(P_a), P_b, layout(P_b), Mab, tab):
         return 0, -1, -1, 1, 0, 0
     pairs, bv, box, tri = traverse(True, P_a, P_b, T_a, T_b)
     if pairs.shape[0] == 0:

@@ -107,7 +107,7 @@ class DistanceResult:
 # on every call.
 
 
-@njit
+@njit(allocates=False)
 def _before(heap, i, j):
     """Whether row i of the heap comes before row j."""
     return heap[i, 0] < heap[j, 0] or (heap[i, 0] == heap[j, 0] and heap[i, 1] > heap[j, 1])
@@ -124,7 +124,7 @@ def _grown(heap):
 # ---------------------------------------------------------------- bounds on code pairs
 
 
-@njit
+@njit(allocates=False)
 def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
     """Corners of triangle t of tree (P, L), mapped by ``x -> M x + tr`` into the mesh frame
     of tree (Pk, Lk), then into the frame of its box k."""
@@ -155,7 +155,7 @@ def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
     )
 
 
-@njit
+@njit(allocates=False)
 def _pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab):
     """The six corners of the triangle pair (x, y) (codes < 0), B's carried into A's frame."""
     ta = -x - 1
@@ -170,19 +170,13 @@ def _pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab):
     )
 
 
-@njit
-def _measure(x, y, Pa, La, Pb, Lb, Mab, tab):
-    """Exact distance of the triangle pair (x, y) (codes < 0), points in A's frame."""
-    return triangle_distance(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
-
-
-@njit
+@njit(allocates=False)
 def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
     """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
     return triangle_gap(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
 
 
-@njit
+@njit(allocates=False)
 def _children(P, L, x):
     """The (one or two) child codes of node x: a classic tree's leaf has one, its triangle."""
     c0 = child(P, L, x, 0)
@@ -230,7 +224,7 @@ def mesh_distance(Pa, Pb, Mab, tab):
     n_pending = 1
     if x0 < 0 and y0 < 0:
         # Two single triangles: no tree to descend.
-        d, pa, pb = _measure(x0, y0, Pa, La, Pb, Lb, Mab, tab)
+        d, pa, pb = triangle_distance(*_pair_corners(x0, y0, Pa, La, Pb, Lb, Mab, tab))
         return d, pa, pb, -x0 - 1, -y0 - 1, 0, 1
     heap = np.empty((8 * (tree_depth(Pa) + tree_depth(Pb)) + 16, 4))
     size = 0
@@ -239,107 +233,116 @@ def mesh_distance(Pa, Pb, Mab, tab):
     carried = -1
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
-    while True:
-        # Measure the triangle pairs first (lowering the best distance), then bound the rest.
-        b0 = math.inf
-        b1 = math.inf
-        for k in range(n_pending):
-            x = x0 if k == 0 else x1
-            y = y0 if k == 0 else y1
-            if x >= 0 or y >= 0:
-                continue
-            if best < math.inf and _gap(x, y, Pa, La, Pb, Lb, Mab, tab) >= best:
-                continue
-            triangle_tests += 1
-            d, pa, pb = _measure(x, y, Pa, La, Pb, Lb, Mab, tab)
-            if d < best:
-                best = d
-                best_a = pa
-                best_b = pb
-                face_a = -x - 1
-                face_b = -y - 1
-        if best == 0.0:
-            break
-        for k in range(n_pending):
-            x = x0 if k == 0 else x1
-            y = y0 if k == 0 else y1
-            if x < 0 and y < 0:
-                continue
-            bound_tests += 1
-            if x >= 0 and y >= 0:
-                if y != carried:
-                    g, c = carry_box(y, Pb, Lb, Mab, tab)
-                    carried = y
-                R, T = box_frame(x, Pa, La, g, c)
-                hx = half_extent(Pa, La, x)
-                bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
-            elif x < 0:
-                v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
-                bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
-            else:
-                v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
-                bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
-            if k == 0:
-                b0 = bound
-            else:
-                b1 = bound
-        # Go on with the child of least bound while it is no worse than the queue's best
-        # (no queue traffic on the way down); queue the rest. (b1 is inf unless two children.)
-        nearest = 1 if b1 <= b0 else 0
-        least = min(b0, b1)
-        dive = least < best and (size == 0 or least <= heap[0, 0])
-        for k in range(n_pending):
-            bound = b0 if k == 0 else b1
-            if bound >= best or (dive and k == nearest):
-                continue
-            if size == heap.shape[0]:
-                heap = _grown(heap)
-            order += 1
-            i = size
-            heap[i, 0] = bound
-            heap[i, 1] = order
-            heap[i, 2] = x0 if k == 0 else x1
-            heap[i, 3] = y0 if k == 0 else y1
-            size += 1
-            while i > 0 and _before(heap, i, (i - 1) // 2):
-                parent = (i - 1) // 2
-                for j in range(4):
-                    heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
-                i = parent
-        if dive:
-            x = x0 if nearest == 0 else x1
-            y = y0 if nearest == 0 else y1
-        else:
-            if size == 0 or heap[0, 0] >= best:
+    # The search runs in the inner loop until it is done or its queue has no room for a
+    # split's two pushes; the queue then grows out here (numba reference-counts an array
+    # variable that a loop reassigns on every pass of that loop).
+    searching = True
+    while searching:
+        searching = False
+        while True:
+            if size + 2 > heap.shape[0]:
+                searching = True
                 break
-            x = int(heap[0, 2])
-            y = int(heap[0, 3])
-            size -= 1
-            for j in range(4):
-                heap[0, j] = heap[size, j]
-            i = 0
-            while True:
-                first = i
-                for child_row in (2 * i + 1, 2 * i + 2):
-                    if child_row < size and _before(heap, child_row, first):
-                        first = child_row
-                if first == i:
+            # Measure the triangle pairs first (lowering the best distance), then bound the rest.
+            b0 = math.inf
+            b1 = math.inf
+            for k in range(n_pending):
+                x = x0 if k == 0 else x1
+                y = y0 if k == 0 else y1
+                if x >= 0 or y >= 0:
+                    continue
+                if best < math.inf and _gap(x, y, Pa, La, Pb, Lb, Mab, tab) >= best:
+                    continue
+                triangle_tests += 1
+                d, pa, pb = triangle_distance(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
+                if d < best:
+                    best = d
+                    best_a = pa
+                    best_b = pb
+                    face_a = -x - 1
+                    face_b = -y - 1
+            if best == 0.0:
+                break
+            for k in range(n_pending):
+                x = x0 if k == 0 else x1
+                y = y0 if k == 0 else y1
+                if x < 0 and y < 0:
+                    continue
+                bound_tests += 1
+                if x >= 0 and y >= 0:
+                    if y != carried:
+                        g, c = carry_box(y, Pb, Lb, Mab, tab)
+                        carried = y
+                    R, T = box_frame(x, Pa, La, g, c)
+                    hx = half_extent(Pa, La, x)
+                    bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
+                elif x < 0:
+                    v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
+                else:
+                    v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
+                if k == 0:
+                    b0 = bound
+                else:
+                    b1 = bound
+            # Go on with the child of least bound while it is no worse than the queue's best
+            # (no queue traffic on the way down); queue the rest. (b1 is inf unless two children.)
+            nearest = 1 if b1 <= b0 else 0
+            least = min(b0, b1)
+            dive = least < best and (size == 0 or least <= heap[0, 0])
+            for k in range(n_pending):
+                bound = b0 if k == 0 else b1
+                if bound >= best or (dive and k == nearest):
+                    continue
+                order += 1
+                i = size
+                heap[i, 0] = bound
+                heap[i, 1] = order
+                heap[i, 2] = x0 if k == 0 else x1
+                heap[i, 3] = y0 if k == 0 else y1
+                size += 1
+                while i > 0 and _before(heap, i, (i - 1) // 2):
+                    parent = (i - 1) // 2
+                    for j in range(4):
+                        heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
+                    i = parent
+            if dive:
+                x = x0 if nearest == 0 else x1
+                y = y0 if nearest == 0 else y1
+            else:
+                if size == 0 or heap[0, 0] >= best:
                     break
+                x = int(heap[0, 2])
+                y = int(heap[0, 3])
+                size -= 1
                 for j in range(4):
-                    heap[i, j], heap[first, j] = heap[first, j], heap[i, j]
-                i = first
-        # Split the larger node (a node facing a triangle is split).
-        split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
-        if split_b:
-            c0, c1, n_pending = _children(Pb, Lb, y)
-            x0 = x1 = x
-            y0 = c0
-            y1 = c1
-        else:
-            c0, c1, n_pending = _children(Pa, La, x)
-            x0 = c0
-            x1 = c1
-            y0 = y1 = y
+                    heap[0, j] = heap[size, j]
+                i = 0
+                while True:
+                    first = i
+                    for child_row in (2 * i + 1, 2 * i + 2):
+                        if child_row < size and _before(heap, child_row, first):
+                            first = child_row
+                    if first == i:
+                        break
+                    for j in range(4):
+                        heap[i, j], heap[first, j] = heap[first, j], heap[i, j]
+                    i = first
+            # Split the larger node (a node facing a triangle is split).
+            split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
+            if split_b:
+                c0, c1, n_pending = _children(Pb, Lb, y)
+                x0 = x1 = x
+                y0 = c0
+                y1 = c1
+            else:
+                c0, c1, n_pending = _children(Pa, La, x)
+                x0 = c0
+                x1 = c1
+                y0 = y1 = y
+        if searching:
+            heap = _grown(heap)
     return best, best_a, best_b, face_a, face_b, bound_tests, triangle_tests
 
 
@@ -404,16 +407,16 @@ def _is_stack(T) -> bool:
     return np.ndim(T) == 3
 
 
-def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b")):
+def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b"), checked=True):
     """Packed trees and (k, 4, 4) pose stacks for a stack kernel, or ValueError.
 
     A lone (4, 4) pose is a stack of one; two stacks must have the same length. ``names``
-    are the pose arguments' names for the messages.
+    are the pose arguments' names for the messages; ``checked`` as :func:`.as_pose_stack`.
     """
     P_a = tree_array(tree_a, "tree_a")
     P_b = tree_array(tree_b, "tree_b")
-    S_a = as_pose_stack(T_a, names[0])
-    S_b = as_pose_stack(T_b, names[1])
+    S_a = as_pose_stack(T_a, names[0], checked)
+    S_b = as_pose_stack(T_b, names[1], checked)
     if len(S_a) != len(S_b) and len(S_a) != 1 and len(S_b) != 1:
         raise ValueError(
             f"{names[0]} and {names[1]} stacks must have the same length (or one pose), got "

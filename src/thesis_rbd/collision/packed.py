@@ -98,7 +98,7 @@ def packed_views(packed):
     )
 
 
-@njit
+@njit(allocates=False)
 def layout(P):
     """Row offsets of a packed tree's blocks and its root code.
 
@@ -113,19 +113,19 @@ def layout(P):
     return c, c + n, c + 2 * n, c + 5 * n, v, v + int(P[0, 1]), int(P[1, 0]), P[1, 1] != 0.0
 
 
-@njit
+@njit(allocates=False)
 def tree_depth(P):
     """Number of levels of a packed tree (sizes traversal stacks)."""
     return int(P[1, 2])
 
 
-@njit
+@njit(allocates=False)
 def tree_scale(P):
     """The mesh's size (bounding-box diagonal) of a packed tree."""
     return P[2, 0]
 
 
-@njit
+@njit(allocates=False)
 def tree_radius(P):
     """Largest distance of a vertex from the mesh-frame origin, of a packed tree."""
     return P[2, 1]
@@ -141,21 +141,21 @@ def mesh_vertices(P):
 # Accessors of a packed tree (P, L = layout(P)), all in its mesh frame.
 
 
-@njit
+@njit(allocates=False)
 def node_size(P, L, k):
     """Longest half-extent of box k of tree (P, L)."""
     h = L[1] + k
     return max(P[h, 0], P[h, 1], P[h, 2])
 
 
-@njit
+@njit(allocates=False)
 def half_extent(P, L, k):
     """Half-extents of box k of tree (P, L) as a tuple."""
     h = L[1] + k
     return (P[h, 0], P[h, 1], P[h, 2])
 
 
-@njit
+@njit(allocates=False)
 def carry_box(y, P, L, M, tab):
     """Box y of tree (P, L) carried by ``x -> M x + tab``: axes ``G = M R[y]`` (row-major
     9-tuple) and centre."""
@@ -180,7 +180,7 @@ def carry_box(y, P, L, M, tab):
     return g, c
 
 
-@njit
+@njit(allocates=False)
 def box_frame(x, P, L, g, c):
     """A box (axes ``g``, a row-major 9-tuple, and centre ``c``, in the mesh frame of tree
     (P, L)) seen from that tree's box x: (rotation ``R_x^T g`` as a 9-tuple, centre offset
@@ -218,14 +218,14 @@ def box_frame(x, P, L, g, c):
     return R, T
 
 
-@njit
+@njit(allocates=False)
 def corner(P, L, t, k):
     """Corner k of triangle t of tree (P, L), in its mesh frame."""
     i = L[4] + int(P[L[5] + t, k])
     return (P[i, 0], P[i, 1], P[i, 2])
 
 
-@njit
+@njit(allocates=False)
 def corner_moved(P, L, t, k, M, tr):
     """Corner k of triangle t of tree (P, L), mapped by ``x -> M x + tr`` (M row-major)."""
     i = L[4] + int(P[L[5] + t, k])
@@ -239,7 +239,7 @@ def corner_moved(P, L, t, k, M, tr):
     )
 
 
-@njit
+@njit(allocates=False)
 def child(P, L, x, side):
     """Child code ``side`` (0 or 1) of node x of tree (P, L)."""
     return int(P[L[3] + x, side])
