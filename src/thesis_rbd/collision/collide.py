@@ -209,8 +209,10 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
     """Walk two trees from the code pairs ``stack[:top]``; return ``(top, n_pairs)``.
 
     The traversal itself, over arrays the caller owns and never replaces: numba increfs and
-    decrefs an array variable that a loop may reassign on every pass (four atomic operations,
-    about half the cost of a box test), so the stack and the pair list are not grown here.
+    decrefs an array variable that a loop may reassign on every pass (atomic operations that
+    cost about as much as the box test itself), so the stack and the pair list are not grown
+    here.
+
     Trees are given as their packed arrays and layouts (:mod:`.packed`), B's mesh frame
     mapped into A's by ``x -> Mab x + tab``. Found pairs are written to ``pairs[n_pairs:]``
     (unsorted); ``counts`` (3,) int64 accumulates the box-box, triangle-box and triangle
