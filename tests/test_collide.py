@@ -254,3 +254,37 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
                 assert tuple(pairs[0]) in set(map(tuple, expected))
         else:
             np.testing.assert_array_equal(_sorted(pairs[:found]), expected)
+
+
+@settings(max_examples=examples(20))
+@given(
+    kind_a=st.sampled_from(MESH_KINDS),
+    kind_b=st.sampled_from(MESH_KINDS),
+    seed=st.integers(0, 2**31),
+    variant_a=st.sampled_from(VARIANTS),
+    variant_b=st.sampled_from(VARIANTS),
+    overlap=st.floats(0.0, 0.3),
+)
+def test_walk_stack_has_room_for_every_walk(kind_a, kind_b, seed, variant_a, variant_b, overlap):
+    """walk_stack sizes the stack from the tree depths (a descent adds at most one row per
+    level): a whole "all" walk, meshes pushed into each other, never stops for room."""
+    from thesis_rbd.collision._query_args import relative_pose
+    from thesis_rbd.collision.collide import walk, walk_stack
+    from thesis_rbd.collision.packed import layout
+
+    mesh_a = random_mesh(kind_a, seed)
+    mesh_b = random_mesh(kind_b, seed + 1)
+    T_b = random_pose(seed + 2, overlap * (mesh_a.scale + mesh_b.scale))
+    P_a = rbd.OBBTree(mesh_a, **variant_a).query_array()
+    P_b = rbd.OBBTree(mesh_b, **variant_b).query_array()
+    La, Lb = layout(P_a), layout(P_b)
+    M, t = relative_pose(np.eye(4), T_b)
+    stack = walk_stack(P_a, P_b)
+    stack[0] = La[6], Lb[6]
+    pairs = np.empty((len(mesh_a.faces) * len(mesh_b.faces), 2), dtype=np.int64)
+    counts = np.zeros(3, dtype=np.int64)
+    top, found = walk(False, P_a, La, P_b, Lb, M, t, stack, 1, pairs, 0, counts)
+    assert top == 0
+    np.testing.assert_array_equal(
+        _sorted(pairs[:found]), brute_force_pairs(mesh_a, np.eye(4), mesh_b, T_b)
+    )
