@@ -19,6 +19,15 @@ VARIANTS = [
     dict(leafless=False, dtype=np.float32),
 ]
 
+# Two generated meshes and their tree variants, as the hypothesis tests draw them.
+SCENES = dict(
+    kind_a=st.sampled_from(MESH_KINDS),
+    kind_b=st.sampled_from(MESH_KINDS),
+    seed=st.integers(0, 2**31),
+    variant_a=st.sampled_from(VARIANTS),
+    variant_b=st.sampled_from(VARIANTS),
+)
+
 
 def _sorted(pairs):
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
@@ -33,13 +42,7 @@ def _scene(kind_a, kind_b, seed):
 
 
 @settings(max_examples=examples(60))
-@given(
-    kind_a=st.sampled_from(MESH_KINDS),
-    kind_b=st.sampled_from(MESH_KINDS),
-    seed=st.integers(0, 2**31),
-    variant_a=st.sampled_from(VARIANTS),
-    variant_b=st.sampled_from(VARIANTS),
-)
+@given(**SCENES)
 def test_all_modes_match_brute_force_and_fcl(kind_a, kind_b, seed, variant_a, variant_b):
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
     tree_a = rbd.OBBTree(mesh_a, **variant_a)
@@ -207,13 +210,7 @@ def test_fortran_ordered_and_readonly_poses_give_the_same_answer():
 
 
 @settings(max_examples=examples(20))
-@given(
-    kind_a=st.sampled_from(MESH_KINDS),
-    kind_b=st.sampled_from(MESH_KINDS),
-    seed=st.integers(0, 2**31),
-    variant_a=st.sampled_from(VARIANTS),
-    variant_b=st.sampled_from(VARIANTS),
-)
+@given(**SCENES)
 def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
     kind_a, kind_b, seed, variant_a, variant_b
 ):
@@ -257,14 +254,7 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
 
 
 @settings(max_examples=examples(20))
-@given(
-    kind_a=st.sampled_from(MESH_KINDS),
-    kind_b=st.sampled_from(MESH_KINDS),
-    seed=st.integers(0, 2**31),
-    variant_a=st.sampled_from(VARIANTS),
-    variant_b=st.sampled_from(VARIANTS),
-    overlap=st.floats(0.0, 0.3),
-)
+@given(**SCENES, overlap=st.floats(0.0, 0.3))
 def test_walk_stack_has_room_for_every_walk(kind_a, kind_b, seed, variant_a, variant_b, overlap):
     """walk_stack sizes the stack from the tree depths (a descent adds at most one row per
     level): a whole "all" walk, meshes pushed into each other, never stops for room."""
