@@ -22,6 +22,7 @@ __all__ = [
     "as_pose",
     "as_pose_stack",
     "call_normalised",
+    "inverse_pose",
     "pose_at",
     "pose_ok",
     "relative_pose",
@@ -180,3 +181,16 @@ def relative_pose(T_a, T_b):
         T_a[0, 2] * d0 + T_a[1, 2] * d1 + T_a[2, 2] * d2,
     )
     return M, t
+
+
+@njit
+def inverse_pose(M, t):
+    """The inverse ``(M^T, -M^T t)`` of the rigid map ``x -> M x + t`` (M a row-major 9-tuple,
+    t a 3-tuple), in the same form."""
+    Mi = (M[0], M[3], M[6], M[1], M[4], M[7], M[2], M[5], M[8])
+    ti = (
+        -(Mi[0] * t[0] + Mi[1] * t[1] + Mi[2] * t[2]),
+        -(Mi[3] * t[0] + Mi[4] * t[1] + Mi[5] * t[2]),
+        -(Mi[6] * t[0] + Mi[7] * t[1] + Mi[8] * t[2]),
+    )
+    return Mi, ti

@@ -92,7 +92,7 @@ def _collide_run(P_a, T_a, P_b, T_b, start, stop, colliding):
         if roots_disjoint(P_a, La, P_b, Lb, M, t):
             previous_hit = False
             continue
-        if previous_hit and faces_intersect(P_a, La, P_b, Lb, M, t, witness[0, 0], witness[0, 1]):
+        if previous_hit and faces_intersect(witness[0, 0], witness[0, 1], P_a, La, P_b, Lb, M, t):
             colliding[i] = True
             continue
         stack[0, 0] = La[6]

@@ -32,6 +32,7 @@ from thesis_rbd._jit import njit
 from thesis_rbd.collision._query_args import (
     as_pose,
     call_normalised,
+    inverse_pose,
     pose_ok,
     raise_bad_pose,
     relative_pose,
@@ -45,11 +46,11 @@ from thesis_rbd.collision.packed import (
     box_frame,
     carry_box,
     child,
-    corner,
     corner_moved,
     half_extent,
     layout,
     node_size,
+    pair_corners,
     tree_depth,
 )
 from thesis_rbd.collision.triangle import tri_box_overlap, tri_tri_overlap
@@ -134,37 +135,18 @@ def _centre_distance2(P, L, k, o):
     return (P[c, 0] - o[0]) ** 2 + (P[c, 1] - o[1]) ** 2 + (P[c, 2] - o[2]) ** 2
 
 
-@njit(allocates=False)
-def _pair_corners(ta, tb, Pa, La, Pb, Lb, Mab, tab):
-    """Corners of triangle ta of A and of triangle tb of B carried into A's frame."""
-    return (
-        corner(Pa, La, ta, 0),
-        corner(Pa, La, ta, 1),
-        corner(Pa, La, ta, 2),
-        corner_moved(Pb, Lb, tb, 0, Mab, tab),
-        corner_moved(Pb, Lb, tb, 1, Mab, tab),
-        corner_moved(Pb, Lb, tb, 2, Mab, tab),
-    )
-
-
 @njit
-def _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
-    # The triangle test may allocate (exact predicates), its corners are read without
-    # reference counting the trees.
-    p0, p1, p2, q0, q1, q2 = _pair_corners(ta, tb, Pa, La, Pb, Lb, Mab, tab)
-    return tri_tri_overlap(p0, p1, p2, q0, q1, q2)
-
-
-@njit
-def faces_intersect(Pa, La, Pb, Lb, Mab, tab, face_a, face_b):
+def faces_intersect(face_a, face_b, Pa, La, Pb, Lb, Mab, tab):
     """Whether face ``face_a`` of A and ``face_b`` of B intersect, B's mesh frame mapped
     into A's by ``x -> Mab x + tab`` (:func:`._query_args.relative_pose` of the poses).
 
-    The triangle test :func:`traverse` makes: a pair that the traversal reports at a pose
-    passes here at that pose, and a pair that passes here is one the traversal would reach
-    (its boxes overlap, so it is never pruned).
+    The triangle test :func:`walk` makes: a pair that the walk reports at a pose passes here
+    at that pose, and a pair that passes here is one the walk would reach (its boxes overlap,
+    so it is never pruned). The test may allocate (exact predicates); the corners are read
+    without reference counting the trees.
     """
-    return _tri_pair(face_a, face_b, Pa, La, Pb, Lb, Mab, tab)
+    p0, p1, p2, q0, q1, q2 = pair_corners(face_a, face_b, Pa, La, Pb, Lb, Mab, tab)
+    return tri_tri_overlap(p0, p1, p2, q0, q1, q2)
 
 
 @njit(allocates=False)
@@ -226,12 +208,7 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
     leafless_a = La[7]
     leafless_b = Lb[7]
     # The inverse transform carries A's triangles into B's frame for B's boxes.
-    Mba = (Mab[0], Mab[3], Mab[6], Mab[1], Mab[4], Mab[7], Mab[2], Mab[5], Mab[8])
-    tba = (
-        -(Mba[0] * tab[0] + Mba[1] * tab[1] + Mba[2] * tab[2]),
-        -(Mba[3] * tab[0] + Mba[4] * tab[1] + Mba[5] * tab[2]),
-        -(Mba[6] * tab[0] + Mba[7] * tab[1] + Mba[8] * tab[2]),
-    )
+    Mba, tba = inverse_pose(Mab, tab)
     bv_tests = 0
     box_tests = 0
     tri_tests = 0
@@ -322,7 +299,7 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
                 continue
         # A triangle pair.
         tri_tests += 1
-        if _tri_pair(ta, tb, Pa, La, Pb, Lb, Mab, tab):
+        if faces_intersect(ta, tb, Pa, La, Pb, Lb, Mab, tab):
             pairs[n_pairs, 0] = ta
             pairs[n_pairs, 1] = tb
             n_pairs += 1

@@ -28,6 +28,7 @@ from thesis_rbd.collision._query_args import (
     as_pose,
     as_pose_stack,
     call_normalised,
+    inverse_pose,
     pose_at,
     pose_ok,
     raise_bad_pose,
@@ -40,11 +41,11 @@ from thesis_rbd.collision.packed import (
     box_frame,
     carry_box,
     child,
-    corner,
     corner_moved,
     half_extent,
     layout,
     node_size,
+    pair_corners,
     tree_depth,
 )
 from thesis_rbd.collision.triangle_distance import triangle_distance, triangle_gap
@@ -156,24 +157,9 @@ def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
 
 
 @njit(allocates=False)
-def _pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab):
-    """The six corners of the triangle pair (x, y) (codes < 0), B's carried into A's frame."""
-    ta = -x - 1
-    tb = -y - 1
-    return (
-        corner(Pa, La, ta, 0),
-        corner(Pa, La, ta, 1),
-        corner(Pa, La, ta, 2),
-        corner_moved(Pb, Lb, tb, 0, Mab, tab),
-        corner_moved(Pb, Lb, tb, 1, Mab, tab),
-        corner_moved(Pb, Lb, tb, 2, Mab, tab),
-    )
-
-
-@njit(allocates=False)
 def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
     """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
-    return triangle_gap(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
+    return triangle_gap(*pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab))
 
 
 @njit(allocates=False)
@@ -204,12 +190,7 @@ def mesh_distance(Pa, Pb, Mab, tab):
     """
     La = layout(Pa)
     Lb = layout(Pb)
-    Mba = (Mab[0], Mab[3], Mab[6], Mab[1], Mab[4], Mab[7], Mab[2], Mab[5], Mab[8])
-    tba = (
-        -(Mba[0] * tab[0] + Mba[1] * tab[1] + Mba[2] * tab[2]),
-        -(Mba[3] * tab[0] + Mba[4] * tab[1] + Mba[5] * tab[2]),
-        -(Mba[6] * tab[0] + Mba[7] * tab[1] + Mba[8] * tab[2]),
-    )
+    Mba, tba = inverse_pose(Mab, tab)
     best = math.inf
     best_a = (0.0, 0.0, 0.0)
     best_b = (0.0, 0.0, 0.0)
@@ -224,7 +205,7 @@ def mesh_distance(Pa, Pb, Mab, tab):
     n_pending = 1
     if x0 < 0 and y0 < 0:
         # Two single triangles: no tree to descend.
-        d, pa, pb = triangle_distance(*_pair_corners(x0, y0, Pa, La, Pb, Lb, Mab, tab))
+        d, pa, pb = triangle_distance(*pair_corners(-x0 - 1, -y0 - 1, Pa, La, Pb, Lb, Mab, tab))
         return d, pa, pb, -x0 - 1, -y0 - 1, 0, 1
     heap = np.empty((8 * (tree_depth(Pa) + tree_depth(Pb)) + 16, 4))
     size = 0
@@ -254,7 +235,8 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 if best < math.inf and _gap(x, y, Pa, La, Pb, Lb, Mab, tab) >= best:
                     continue
                 triangle_tests += 1
-                d, pa, pb = triangle_distance(*_pair_corners(x, y, Pa, La, Pb, Lb, Mab, tab))
+                corners = pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab)
+                d, pa, pb = triangle_distance(*corners)
                 if d < best:
                     best = d
                     best_a = pa

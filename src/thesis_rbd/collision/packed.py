@@ -41,6 +41,7 @@ __all__ = [
     "node_size",
     "pack_tree",
     "packed_views",
+    "pair_corners",
     "tree_depth",
     "tree_radius",
     "tree_scale",
@@ -236,6 +237,20 @@ def corner_moved(P, L, t, k, M, tr):
         M[0] * x + M[1] * y + M[2] * z + tr[0],
         M[3] * x + M[4] * y + M[5] * z + tr[1],
         M[6] * x + M[7] * y + M[8] * z + tr[2],
+    )
+
+
+@njit(allocates=False)
+def pair_corners(ta, tb, Pa, La, Pb, Lb, Mab, tab):
+    """Corners of triangle ta of tree (Pa, La), in its mesh frame, and of triangle tb of tree
+    (Pb, Lb), carried into that frame by ``x -> Mab x + tab``: six 3-tuples."""
+    return (
+        corner(Pa, La, ta, 0),
+        corner(Pa, La, ta, 1),
+        corner(Pa, La, ta, 2),
+        corner_moved(Pb, Lb, tb, 0, Mab, tab),
+        corner_moved(Pb, Lb, tb, 1, Mab, tab),
+        corner_moved(Pb, Lb, tb, 2, Mab, tab),
     )
 
 
