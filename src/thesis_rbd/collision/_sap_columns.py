@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import stable_argsort
 
 __all__ = ["build_axes", "merge_records", "new_records", "rebin_axis"]
 
@@ -32,11 +33,11 @@ __all__ = ["build_axes", "merge_records", "new_records", "rebin_axis"]
 def _sort_records(rv, re, rc):
     """Records ``(value, code, column)`` sorted by the key (column, value, is_end)."""
     # Three stable passes: begins before ends, then by value, then by column. The integer
-    # keys are sorted as int64, the type of the package's other stable sorts, so that numba
-    # compiles one merge sort for them.
-    order = np.argsort((re & 1).astype(np.int64), kind="mergesort")
-    order = order[np.argsort(rv[order], kind="mergesort")]
-    order = order[np.argsort(rc[order].astype(np.int64), kind="mergesort")]
+    # keys are sorted as int64, the type of the package's other stable sorts, so that one
+    # version of the sort serves them all.
+    order = stable_argsort((re & 1).astype(np.int64))
+    order = order[stable_argsort(rv[order])]
+    order = order[stable_argsort(rc[order].astype(np.int64))]
     return rv[order], re[order], rc[order]
 
 

@@ -43,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import sorted_copy
 from thesis_rbd.collision._sap_columns import rebin_axis
 from thesis_rbd.collision._sap_grid import cell_of
 from thesis_rbd.collision.pair_table import (
@@ -514,7 +515,7 @@ def collect_events(keys, flags, meta, touched):
             flags[slot] = IN_SET
         else:
             table_delete(keys, flags, meta, slot)
-    return np.sort(added[:na]), np.sort(removed[:nr])
+    return sorted_copy(added[:na]), sorted_copy(removed[:nr])
 
 
 @njit
@@ -647,7 +648,7 @@ def sweep_all_pairs(box, ep, axis):
                     out = grown
                 out[k] = pair_key(order[s], order[t])
                 k += 1
-    return np.sort(out[:k])
+    return sorted_copy(out[:k])
 
 
 @njit

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import sorted_copy
 from thesis_rbd.collision._sap_columns import merge_records, new_records
 from thesis_rbd.collision.pair_table import pair_key
 
@@ -41,7 +42,7 @@ def pairs_with_new(box, first_new):
                     out = grown
                 out[k] = pair_key(j, i)
                 k += 1
-    return np.sort(out[:k])
+    return sorted_copy(out[:k])
 
 
 @njit

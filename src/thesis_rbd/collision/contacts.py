@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import sorted_copy, stable_argsort
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision._vec3 import add, cross, dot, lerp, matvec, norm, scale, sub
 from thesis_rbd.collision.predicates import orient2d, plane_sides
@@ -479,7 +480,7 @@ def cluster_points(points, tolerance):
     """
     c = points.shape[0]
     parent = np.arange(c)
-    order = np.argsort(points[:, 0], kind="mergesort")
+    order = stable_argsort(points[:, 0].copy())  # contiguous, as the other sorts' keys
     tol2 = tolerance * tolerance
     for ii in range(c):
         i = order[ii]
@@ -516,5 +517,5 @@ def merge_contacts(points, depths, tolerance):
         if parent[i] == i:
             keep[n] = best[i]
             n += 1
-    out = np.sort(keep[:n])
+    out = sorted_copy(keep[:n])
     return out

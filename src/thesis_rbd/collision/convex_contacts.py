@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import stable_argsort
 from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet, contact_views
 from thesis_rbd.collision.convex_box import box_box_query, box_face_contacts
 from thesis_rbd.collision.convex_coherence import certify_face_axis
@@ -565,7 +566,7 @@ def convex_contacts_for_pairs(
     order = np.arange(p)
     for q in range(1, p):
         if new_keys[q] < new_keys[q - 1]:  # (the broad phase's pairs come sorted)
-            order = np.argsort(new_keys)
+            order = stable_argsort(new_keys)
             break
     put_a, put_b, put_points, put_normals, put_depths, put_faces, put_features = contact_views(
         ints, floats, c

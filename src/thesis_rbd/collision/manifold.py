@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import stable_argsort, unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contacts import cluster_points
 
@@ -40,7 +41,7 @@ def region_of_faces(tri_pairs, region, faces):
     """Region of each contact, looked up by its [face of A, face of B] pair."""
     width = tri_pairs[:, 1].max() + 1
     keys = tri_pairs[:, 0] * width + tri_pairs[:, 1]
-    order = np.argsort(keys)
+    order = stable_argsort(keys)
     sorted_keys = keys[order]
     out = np.empty(faces.shape[0], np.int64)
     for c in range(faces.shape[0]):
@@ -182,7 +183,7 @@ def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
     k = tri_pairs.shape[0]
     parent = np.arange(k)
     for column in range(2):
-        order = np.argsort(tri_pairs[:, column], kind="mergesort")
+        order = stable_argsort(tri_pairs[:, column].copy())
         for r in range(1, k):
             if tri_pairs[order[r], column] == tri_pairs[order[r - 1], column]:
                 join(parent, order[r], order[r - 1])
@@ -199,8 +200,8 @@ def region_normals(tri_pairs, Va, Fa, Vb, Fb, Rab, tab):
     normals = np.zeros((count, 3))
     depths = np.zeros(count)
     for g in range(count):
-        faces_a = np.unique(tri_pairs[region == g, 0])
-        faces_b = np.unique(tri_pairs[region == g, 1])
+        faces_a = unique_sorted(tri_pairs[region == g, 0])
+        faces_b = unique_sorted(tri_pairs[region == g, 1])
         corners_a = np.empty((3 * faces_a.shape[0], 3))
         corners_b = np.empty((3 * faces_b.shape[0], 3))
         for i in range(faces_a.shape[0]):
@@ -411,7 +412,7 @@ def region_manifolds(
         members = np.flatnonzero(point_region == g)
         in_region = region == g
         vertex_points, vertex_faces = _vertex_face_points(
-            np.unique(tri_pairs[in_region, 0]), np.unique(tri_pairs[in_region, 1]),
+            unique_sorted(tri_pairs[in_region, 0]), unique_sorted(tri_pairs[in_region, 1]),
             Va, Fa, Vb, Fb, Rab, tab, region_normal[g], region_depth[g], tolerance,
         )  # fmt: skip
         candidates = np.concatenate((points[members], vertex_points))

@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.convex_contacts import pair_key
@@ -103,7 +104,7 @@ def unique_pairs(body_a, body_b, selected):
         if selected[k]:
             keys[m] = pair_key(body_a[k], body_b[k])
             m += 1
-    distinct = np.unique(keys[:m])
+    distinct = unique_sorted(keys[:m])
     pairs = np.empty((distinct.shape[0], 2), np.int64)
     for r in range(distinct.shape[0]):
         pairs[r, 0], pairs[r, 1] = distinct[r] >> 32, distinct[r] & 0xFFFFFFFF

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import stable_argsort
 from thesis_rbd._union_find import find_root, join
 
 __all__ = ["find_islands", "order_from_the_top"]
@@ -142,4 +143,4 @@ def order_from_the_top(body_count, body_a, body_b, static, contact_order, island
         for idx in range(island_start[isl], island_start[isl + 1]):
             k = contact_order[idx]
             key[idx] = isl * (highest + 1) + highest - max(level[body_a[k]], level[body_b[k]])
-    return contact_order[np.argsort(key, kind="mergesort")]
+    return contact_order[stable_argsort(key)]

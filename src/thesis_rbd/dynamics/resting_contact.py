@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._jit import njit
+from thesis_rbd._sorting import stable_argsort
 from thesis_rbd.collision.contact_set import contact_views
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import (
@@ -246,7 +247,7 @@ def solve_contacts(
             )
         for d in range(3):
             impulse[order[k], d] = lam[k, d]
-    by_key = np.argsort(keys, kind="mergesort")
+    by_key = stable_argsort(keys)
     for m in range(c):
         k = by_key[m]
         new_keys[m, 0], new_keys[m, 1] = keys[k], sorted_features[k]
