@@ -23,11 +23,13 @@ from tests.reference_convex import (
 from thesis_rbd.collision.convex_contacts import (
     _TIE,
     SPECULATIVE_FRACTION,
+    _packed_query_scratch,
     cache_views,
     convex_contacts,
     empty_cache,
     pack_cache,
     pair_key,
+    query_scratch,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.convex_sat import EDGES
@@ -81,11 +83,14 @@ class Pair:
             widths.append((projections.max(axis=0) - projections.min(axis=0)).min())
         return SPECULATIVE_FRACTION * min(widths)
 
-    def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION):
+    def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION, scratch=query_scratch):
+        """(contacts, new cache); ``scratch`` makes the general query's scratch from the hull
+        set (``query_scratch``: None where both hulls are boxes)."""
         cache = empty_cache() if cache is None else cache
         found, new_cache = convex_contacts(
             np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self.position, self.orientation, np.zeros((2, 3)), cache, speculative, 0.0,
+            scratch(self.hulls), self.position, self.orientation, np.zeros((2, 3)), cache,
+            speculative, 0.0,
         )  # fmt: skip
         return dict(found), new_cache
 
@@ -377,6 +382,37 @@ def test_convex_path_agrees_with_fcl_convex(pair):
     theirs_normal = -np.asarray(theirs.normal)
     assume(float(theirs_normal @ exact_normal) >= math.cos(1e-3))
     assert float(theirs_normal @ ours["normals"][0]) >= math.cos(1e-3)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(pairs(kinds=st.just("box")))
+def test_box_pairs_without_the_general_query_answer_as_with_it(pair):
+    """Where every hull is a box the kernels get no query scratch and are compiled without the
+    general query: their contacts and cache are those of the kernel compiled with it."""
+    assert query_scratch(pair.hulls) is None
+    found, cache = pair.contacts()
+    general, general_cache = pair.contacts(
+        scratch=lambda hulls: _packed_query_scratch(hulls.arrays())
+    )
+    assert found.keys() == general.keys()
+    for key in found:
+        np.testing.assert_array_equal(found[key], general[key])
+    for a, b in zip(cache_views(cache), cache_views(general_cache), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_the_general_query_scratch_is_left_out_only_for_boxes():
+    box, sphere = rbd.shapes.box((1.0, 2.0, 3.0)), rbd.shapes.icosphere(1.0, 1)
+    identity = (np.zeros(3), np.array([0, 0, 0, 1.0]))
+    boxes = Pair(box, box, identity, identity)
+    mixed = Pair(box, sphere, identity, identity)
+    assert query_scratch(boxes.hulls) is None
+    assert isinstance(query_scratch(mixed.hulls), tuple)
+    found, _ = mixed.contacts()
+    assert len(found["depths"]) > 0
+    # a kernel told every hull is a box, given a pair that is not: a clear error, no garbage
+    with pytest.raises(ValueError, match="query_scratch"):
+        mixed.contacts(scratch=lambda hulls: None)
 
 
 def test_coherence_cache_keeps_features_and_answers():

@@ -28,6 +28,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
+    query_scratch,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -66,6 +67,7 @@ class RestingPairs:
         self.tree_of_body = np.array(
             [self.trees.geometry_of(floor)] + [self.trees.geometry_of(body)] * count, np.int64
         )
+        self.query_scratch = query_scratch(self.hulls)
         self.cache = empty_cache()
         self.cache = self._convex()[1]
 
@@ -75,7 +77,7 @@ class RestingPairs:
     def _convex(self):
         return convex_contacts(
             self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            *self.state(), self.cache, SPECULATIVE_FRACTION, REACH,
+            self.query_scratch, *self.state(), self.cache, SPECULATIVE_FRACTION, REACH,
         )  # fmt: skip
 
     def convex(self):

@@ -66,7 +66,8 @@ def run_steady_steps(
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum,
     start_position, start_orientation, stats,
     size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half, speculative,
-    reach, tight, candidates, hull_of_body, hull_arrays, longest_loop, center_of_mass_local,
+    reach, tight, candidates, hull_of_body, hull_arrays, longest_loop, query_scratch,
+    center_of_mass_local,
     contact_ints, contact_floats, contact_count, warm_keys, warm_values,
     acted_ints, acted_floats, acted_count, acted_impulses,
     cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count,
@@ -95,7 +96,8 @@ def run_steady_steps(
         The collision pipeline's (``CollisionPipeline.steady_arguments``): bounding radii,
         the fat-box horizon (s), fat boxes, fast flags, fat pairs and their bodies, mesh-frame
         boxes, the speculative fraction and reach, tight boxes, the candidate buffer (f, 2),
-        and the hull set, as ``candidate_pairs`` and ``convex_contacts_for_pairs`` take them.
+        and the hull set and its query scratch, as ``candidate_pairs`` and
+        ``convex_contacts_for_pairs`` take them.
     contact_ints, contact_floats, contact_count
         The contacts where the bodies are now (a ``ContactSet``'s arrays and count).
     warm_keys, warm_values
@@ -187,8 +189,8 @@ def run_steady_steps(
             contact_ints = np.empty(OUTPUT_INTS * candidate_count, np.int64)
             contact_floats = np.empty(OUTPUT_FLOATS * candidate_count)
             contact_count = convex_contacts_for_pairs(
-                pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
-                center_of_mass_local, cache_ints, cache_floats, cache_int_offset,
+                pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position,
+                orientation, center_of_mass_local, cache_ints, cache_floats, cache_int_offset,
                 cache_float_offset, cache_count, speculative, reach, contact_ints,
                 contact_floats,
             )  # fmt: skip

@@ -89,6 +89,7 @@ class _Scene:
         self._convex_contacts = convex_contacts.convex_contacts
         self._speculative = convex_contacts.SPECULATIVE_FRACTION
         self._empty_cache = convex_contacts.empty_cache
+        self._query_scratch = convex_contacts.query_scratch
         self._mesh_kernel = narrow_phase.contacts_for_pairs
         rng = np.random.default_rng(seed)
         self.meshes, position, orientation, self.depth_fraction = [], [], [], []
@@ -132,7 +133,8 @@ class _Scene:
         """(contacts, new cache), unpacked as the world's narrow phase unpacks them."""
         return self._convex_contacts(
             self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self.position, self.orientation, self.center_of_mass_local, cache,
+            self._query_scratch(self.hulls), self.position, self.orientation,
+            self.center_of_mass_local, cache,
             self._speculative, 0.0,
         )  # fmt: skip
 

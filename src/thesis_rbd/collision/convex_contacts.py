@@ -49,7 +49,7 @@ from thesis_rbd.collision.convex_gjk import (
     mapped_support,
     support_vertex,
 )
-from thesis_rbd.collision.convex_hull_data import unpack_hulls
+from thesis_rbd.collision.convex_hull_data import HullSet, unpack_hulls
 from thesis_rbd.collision.convex_manifold import (
     DEEPEST_VERTEX_TAG,
     PARALLEL_COSINE,
@@ -73,6 +73,7 @@ __all__ = [
     "empty_cache",
     "feature_id",
     "pair_key",
+    "query_scratch",
 ]
 
 # Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
@@ -350,9 +351,27 @@ def _query_scratch(H):
     )
 
 
+@njit
+def _packed_query_scratch(hull_arrays):
+    return _query_scratch(unpack_hulls(hull_arrays))
+
+
+def query_scratch(hulls: HullSet) -> tuple | None:
+    """The scratch arrays of the general pair query for ``hulls`` (``convex_contacts_for_pairs``
+    takes them as ``query_scratch``), or None where every hull is a box.
+
+    Two boxes take the closed form; None tells the kernels so when they are compiled, and
+    the general query (GJK, EPA and the separating-axis search: most of the convex path's
+    first-run compile) is then left out of them. Make them again when the set changes.
+    """
+    if np.all(hulls.box_features[:, 0] >= 0):
+        return None
+    return _packed_query_scratch(hulls.arrays())
+
+
 @njit(separate=True)
 def convex_contacts_for_pairs(
-    pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+    pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
     center_of_mass_local, cache_ints, cache_floats, cache_int_offset, cache_float_offset,
     cache_count, speculative, reach, ints, floats,
 ):  # fmt: skip
@@ -369,6 +388,9 @@ def convex_contacts_for_pairs(
         ``HullSet.arrays()``: the packed hull set.
     longest_loop : int
         ``HullSet.longest_loop``: most corners of any face.
+    query_scratch : tuple or None
+        ``query_scratch(hulls)``: arrays the general pair query works in, or None where
+        every hull is a box (the general query is then not compiled into the kernel).
     position, orientation, center_of_mass_local : (n, 3), (n, 4), (n, 3) float64
         Body state: x_world = R(orientation) (x_mesh - center_of_mass_local) + position.
     cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
@@ -429,7 +451,6 @@ def convex_contacts_for_pairs(
         cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
     )
     p = pairs.shape[0]
-    scratch = _query_scratch(H)
     corners = 2 * longest_loop + 2
     reference = np.empty((longest_loop, 3))
     incident = np.empty((longest_loop, 3))
@@ -472,6 +493,8 @@ def convex_contacts_for_pairs(
             kind, fi, fj, separation, ux, uy, uz = box_box_query(
                 box_frames, box_features, ha, hb, R, t, tolerance
             )
+        elif query_scratch is None:  # (numba drops this branch or the next when compiling)
+            raise ValueError("query_scratch is None, but a pair's hulls are not both boxes")
         else:
             # last step's axis first (two boxes need no cache: their test is closed form)
             cached_kind, cached_i, cached_j = 0, 0, 0
@@ -492,7 +515,7 @@ def convex_contacts_for_pairs(
             if not certified:
                 kind, fi, fj, separation, ux, uy, uz = _pair_query(
                     H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin,
-                    scratch,
+                    query_scratch,
                 )  # fmt: skip
         new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
@@ -590,8 +613,8 @@ def convex_contacts_for_pairs(
 
 
 def convex_contacts(
-    pairs, hull_of_body, hull_arrays, longest_loop, position, orientation, center_of_mass_local,
-    cache, speculative, reach,
+    pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
+    center_of_mass_local, cache, speculative, reach,
 ) -> tuple[ContactSet, tuple]:  # fmt: skip
     """``convex_contacts_for_pairs`` (same arguments, ``cache`` the tuple of its five cache
     arguments, as ``empty_cache`` makes it): the contacts as a ``ContactSet`` and the new
@@ -599,7 +622,7 @@ def convex_contacts(
     p = len(pairs)
     ints, floats = np.empty(OUTPUT_INTS * p, np.int64), np.empty(OUTPUT_FLOATS * p)
     c = convex_contacts_for_pairs(
-        pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+        pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
         center_of_mass_local, *cache, speculative, reach, ints, floats,
     )  # fmt: skip
     return ContactSet(ints, floats, c), (ints, floats, INT_WIDTH * c, FLOAT_WIDTH * c, p)

@@ -28,6 +28,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
+    query_scratch,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -89,6 +90,7 @@ class CollisionPipeline:
         self.hull_of_body = np.zeros(0, np.int64)
         self.convex_cache = empty_cache()
         self._hull_arrays = self.hulls.arrays()
+        self._query_scratch = query_scratch(self.hulls)
         self._every_body_convex = self._any_body_convex = False
         self.box_offset = np.zeros((0, 3))
         self.box_half = np.zeros((0, 3))
@@ -117,6 +119,7 @@ class CollisionPipeline:
         hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
         self.hull_of_body = np.append(self.hull_of_body, hull)
         self._hull_arrays = self.hulls.arrays()
+        self._query_scratch = query_scratch(self.hulls)
         self._every_body_convex = bool(np.all(self.hull_of_body >= 0))
         self._any_body_convex = bool(np.any(self.hull_of_body >= 0))
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step
@@ -304,7 +307,7 @@ class CollisionPipeline:
             self._size, PREDICTION_STEPS * dt, self.fat, self._fast, self.fat_pairs,
             self.pair_members, self.box_offset, self.box_half, SPECULATIVE_FRACTION,
             self._reach, self.tight, self._candidates, self.hull_of_body, self._hull_arrays,
-            self.hulls.longest_loop, self._center_of_mass_local,
+            self.hulls.longest_loop, self._query_scratch, self._center_of_mass_local,
         )  # fmt: skip
 
     def take_steady(self, refit: bool, candidate_count: int, cache: tuple) -> np.ndarray:
@@ -341,8 +344,8 @@ class CollisionPipeline:
         built, and the tree query is not compiled), so that a kernel can ask it in a loop."""
         trees = None if self._every_body_convex else self.geometry.arrays()
         return (
-            self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *self.convex_cache,
-            self.geometry_of_body, trees,
+            self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, self._query_scratch,
+            *self.convex_cache, self.geometry_of_body, trees,
         )  # fmt: skip
 
     def intersects(self, pairs: np.ndarray, position=None, orientation=None) -> bool:
@@ -399,7 +402,8 @@ class CollisionPipeline:
     def _convex_contacts(self, pairs, state, keep_cache: bool) -> ContactSet:
         """Contacts of convex pairs by the convex kernel, with its coherence cache."""
         contacts, cache = convex_contacts(
-            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop, *state,
+            pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop,
+            self._query_scratch, *state,
             self.convex_cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
         if keep_cache:

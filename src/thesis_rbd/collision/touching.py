@@ -25,8 +25,8 @@ __all__ = ["pairs_touch"]
 @njit
 def pairs_touch(
     pairs, position, orientation, center_of_mass_local, hull_of_body, hull_arrays,
-    longest_loop, cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count,
-    geometry_of_body, geometry_arrays,
+    longest_loop, query_scratch, cache_ints, cache_floats, cache_int_offset,
+    cache_float_offset, cache_count, geometry_of_body, geometry_arrays,
 ):  # fmt: skip
     """Whether any of the body ``pairs`` (p, 2) int64 overlaps or touches.
 
@@ -46,7 +46,8 @@ def pairs_touch(
         ints = np.empty(OUTPUT_INTS * p, np.int64)
         floats = np.empty(OUTPUT_FLOATS * p)
         count = convex_contacts_for_pairs(
-            convex_pairs, hull_of_body, hull_arrays, longest_loop, position, orientation,
+            convex_pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position,
+            orientation,
             center_of_mass_local, cache_ints, cache_floats, cache_int_offset, cache_float_offset,
             cache_count, 0.0, 0.0, ints, floats,
         )  # fmt: skip
