@@ -353,6 +353,7 @@ def _query_scratch(H):
 
 @njit
 def _packed_query_scratch(hull_arrays):
+    """``_query_scratch`` of a packed hull set (``HullSet.arrays()``), for Python callers."""
     return _query_scratch(unpack_hulls(hull_arrays))
 
 
