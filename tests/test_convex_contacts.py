@@ -23,13 +23,13 @@ from tests.reference_convex import (
 from thesis_rbd.collision.convex_contacts import (
     _TIE,
     SPECULATIVE_FRACTION,
-    _packed_query_scratch,
+    _scratch_arrays,
     cache_views,
     convex_contacts,
     empty_cache,
     pack_cache,
     pair_key,
-    query_scratch,
+    query_scratch_for,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.convex_sat import EDGES
@@ -83,9 +83,9 @@ class Pair:
             widths.append((projections.max(axis=0) - projections.min(axis=0)).min())
         return SPECULATIVE_FRACTION * min(widths)
 
-    def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION, scratch=query_scratch):
+    def contacts(self, cache=None, speculative=SPECULATIVE_FRACTION, scratch=query_scratch_for):
         """(contacts, new cache); ``scratch`` makes the general query's scratch from the hull
-        set (``query_scratch``: None where both hulls are boxes)."""
+        set (``query_scratch_for``: None where both hulls are boxes)."""
         cache = empty_cache() if cache is None else cache
         found, new_cache = convex_contacts(
             np.array([[0, 1]]), self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
@@ -389,11 +389,9 @@ def test_convex_path_agrees_with_fcl_convex(pair):
 def test_box_pairs_without_the_general_query_answer_as_with_it(pair):
     """Where every hull is a box the kernels get no query scratch and are compiled without the
     general query: their contacts and cache are those of the kernel compiled with it."""
-    assert query_scratch(pair.hulls) is None
+    assert query_scratch_for(pair.hulls) is None
     found, cache = pair.contacts()
-    general, general_cache = pair.contacts(
-        scratch=lambda hulls: _packed_query_scratch(hulls.arrays())
-    )
+    general, general_cache = pair.contacts(scratch=_scratch_arrays)
     assert found.keys() == general.keys()
     for key in found:
         np.testing.assert_array_equal(found[key], general[key])
@@ -406,8 +404,8 @@ def test_the_general_query_scratch_is_left_out_only_for_boxes():
     identity = (np.zeros(3), np.array([0, 0, 0, 1.0]))
     boxes = Pair(box, box, identity, identity)
     mixed = Pair(box, sphere, identity, identity)
-    assert query_scratch(boxes.hulls) is None
-    assert isinstance(query_scratch(mixed.hulls), tuple)
+    assert query_scratch_for(boxes.hulls) is None
+    assert isinstance(query_scratch_for(mixed.hulls), tuple)
     found, _ = mixed.contacts()
     assert len(found["depths"]) > 0
     # a kernel told every hull is a box, given a pair that is not: a clear error, no garbage

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from reference import examples
 
-from thesis_rbd._sorting import sorted_copy, stable_argsort, unique_sorted
+from thesis_rbd._sorting import sort_with_order, sorted_copy, stable_argsort, unique_sorted
 
 # Few distinct values, so that most draws hold runs of equal keys (where stability shows),
 # and lengths past the insertion-sorted runs (16) and several merge passes.
@@ -24,7 +24,11 @@ FLOATS = arrays(
 @settings(max_examples=examples(200))
 @given(keys=st.one_of(INTS, WIDE_INTS, FLOATS))
 def test_stable_argsort_is_numpys_stable_argsort(keys):
-    np.testing.assert_array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+    order = np.argsort(keys, kind="stable")
+    np.testing.assert_array_equal(stable_argsort(keys), order)
+    ordered, with_order = sort_with_order(keys)
+    np.testing.assert_array_equal(with_order, order)
+    np.testing.assert_array_equal(ordered, keys[order])
 
 
 @settings(max_examples=examples(100))

@@ -28,7 +28,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
-    query_scratch,
+    query_scratch_for,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -67,7 +67,7 @@ class RestingPairs:
         self.tree_of_body = np.array(
             [self.trees.geometry_of(floor)] + [self.trees.geometry_of(body)] * count, np.int64
         )
-        self.query_scratch = query_scratch(self.hulls)
+        self.query_scratch = query_scratch_for(self.hulls)
         self.cache = empty_cache()
         self.cache = self._convex()[1]
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from thesis_rbd._jit import njit
 
-__all__ = ["sorted_copy", "stable_argsort", "unique_sorted"]
+__all__ = ["sort_with_order", "sorted_copy", "stable_argsort", "unique_sorted"]
 
 # Runs this short are sorted by insertion before merging: fewer passes over the scratch array.
 _RUN = 16
@@ -35,18 +35,19 @@ def _before(x, y):
 def stable_argsort(keys):
     """The order that sorts ``keys`` (n,) int64 or float64 ascending, equal keys in their
     input order: ``np.argsort(keys, kind="stable")``, as an (n,) int64 array."""
-    return _merge_sort(keys)[1]
+    return sort_with_order(keys)[1]
 
 
 @njit
 def sorted_copy(keys):
     """``np.sort(keys)`` for (n,) int64 or float64 keys: a sorted copy."""
-    return _merge_sort(keys)[0]
+    return sort_with_order(keys)[0]
 
 
 @njit
-def _merge_sort(keys):
-    """(sorted copy of ``keys``, the stable order that sorts them): a bottom-up merge sort,
+def sort_with_order(keys):
+    """(sorted copy of ``keys`` (n,) int64 or float64, the stable order that sorts them): both
+    of what ``np.sort`` and ``np.argsort(kind="stable")`` give, from one bottom-up merge sort,
     after insertion sorts of short runs. The keys travel with their indices, so that each
     comparison reads two neighbouring keys rather than two keys scattered by an index."""
     n = keys.shape[0]

@@ -89,7 +89,6 @@ class _Scene:
         self._convex_contacts = convex_contacts.convex_contacts
         self._speculative = convex_contacts.SPECULATIVE_FRACTION
         self._empty_cache = convex_contacts.empty_cache
-        self._query_scratch = convex_contacts.query_scratch
         self._mesh_kernel = narrow_phase.contacts_for_pairs
         rng = np.random.default_rng(seed)
         self.meshes, position, orientation, self.depth_fraction = [], [], [], []
@@ -121,6 +120,7 @@ class _Scene:
         self.pairs = np.arange(2 * count, dtype=np.int64).reshape(count, 2)
         self.hulls, self.trees = HullSet(), narrow_phase.GeometrySet()
         self.hull_of_body = np.array([self.hulls.hull_of(m) for m in self.meshes], np.int64)
+        self.query_scratch = convex_contacts.query_scratch_for(self.hulls)
         self.tree_of_body = np.array([self.trees.geometry_of(m) for m in self.meshes], np.int64)
         self.cache = self._empty_cache()
         self.cache = self._convex(self.cache)[1]
@@ -133,7 +133,7 @@ class _Scene:
         """(contacts, new cache), unpacked as the world's narrow phase unpacks them."""
         return self._convex_contacts(
             self.pairs, self.hull_of_body, self.hulls.arrays(), self.hulls.longest_loop,
-            self._query_scratch(self.hulls), self.position, self.orientation,
+            self.query_scratch, self.position, self.orientation,
             self.center_of_mass_local, cache,
             self._speculative, 0.0,
         )  # fmt: skip

@@ -73,7 +73,7 @@ __all__ = [
     "empty_cache",
     "feature_id",
     "pair_key",
-    "query_scratch",
+    "query_scratch_for",
 ]
 
 # Pairs apart by at most this fraction of the thinner hull's thickness get (speculative)
@@ -329,15 +329,26 @@ def _pair_query(H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, ma
     )  # fmt: skip
 
 
-@njit
-def _query_scratch(H):
-    """Scratch arrays of ``_pair_query``, sized for the hull set, reused over pairs."""
-    vertex_start, face_start, edge_start = H[0], H[7], H[11]
-    most_v = most_f = most_e = 1
-    for h in range(vertex_start.shape[0] - 1):
-        most_v = max(most_v, vertex_start[h + 1] - vertex_start[h])
-        most_f = max(most_f, face_start[h + 1] - face_start[h])
-        most_e = max(most_e, edge_start[h + 1] - edge_start[h])
+def query_scratch_for(hulls: HullSet) -> tuple | None:
+    """The scratch arrays of the general pair query for ``hulls`` (``convex_contacts_for_pairs``
+    takes them as ``query_scratch``), or None where every hull is a box.
+
+    Two boxes take the closed form; None tells the kernels so when they are compiled, and
+    the general query (GJK, EPA and the separating-axis search: most of the convex path's
+    first-run compile) is then left out of them. Make them again when the set changes.
+    """
+    if np.all(hulls.box_features[:, 0] >= 0):
+        return None
+    return _scratch_arrays(hulls)
+
+
+def _scratch_arrays(hulls: HullSet) -> tuple:
+    """Arrays ``_pair_query`` works in, sized for the largest hull of ``hulls`` (at least one),
+    reused over the pairs and the calls."""
+    most_v, most_f, most_e = (
+        max(int(np.diff(start).max()), 1)
+        for start in (hulls.vertex_start, hulls.face_start, hulls.edge_start)
+    )
     # a pair of the separating-axis test has at most SAT_EDGE_PAIRS / 6 edges on each side
     # (a hull has at least 6), and no more faces than edges
     side = SAT_EDGE_PAIRS // 6
@@ -349,25 +360,6 @@ def _query_scratch(H):
         np.empty((min(most_e, side), min(most_f, side))),
         epa_scratch(),
     )
-
-
-@njit
-def _packed_query_scratch(hull_arrays):
-    """``_query_scratch`` of a packed hull set (``HullSet.arrays()``), for Python callers."""
-    return _query_scratch(unpack_hulls(hull_arrays))
-
-
-def query_scratch(hulls: HullSet) -> tuple | None:
-    """The scratch arrays of the general pair query for ``hulls`` (``convex_contacts_for_pairs``
-    takes them as ``query_scratch``), or None where every hull is a box.
-
-    Two boxes take the closed form; None tells the kernels so when they are compiled, and
-    the general query (GJK, EPA and the separating-axis search: most of the convex path's
-    first-run compile) is then left out of them. Make them again when the set changes.
-    """
-    if np.all(hulls.box_features[:, 0] >= 0):
-        return None
-    return _packed_query_scratch(hulls.arrays())
 
 
 @njit(separate=True)
@@ -390,7 +382,7 @@ def convex_contacts_for_pairs(
     longest_loop : int
         ``HullSet.longest_loop``: most corners of any face.
     query_scratch : tuple or None
-        ``query_scratch(hulls)``: arrays the general pair query works in, or None where
+        ``query_scratch_for(hulls)``: arrays the general pair query works in, or None where
         every hull is a box (the general query is then not compiled into the kernel).
     position, orientation, center_of_mass_local : (n, 3), (n, 4), (n, 3) float64
         Body state: x_world = R(orientation) (x_mesh - center_of_mass_local) + position.

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._jit import njit
-from thesis_rbd._sorting import stable_argsort, unique_sorted
+from thesis_rbd._sorting import sort_with_order, stable_argsort, unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contacts import cluster_points
 
@@ -41,8 +41,7 @@ def region_of_faces(tri_pairs, region, faces):
     """Region of each contact, looked up by its [face of A, face of B] pair."""
     width = tri_pairs[:, 1].max() + 1
     keys = tri_pairs[:, 0] * width + tri_pairs[:, 1]
-    order = stable_argsort(keys)
-    sorted_keys = keys[order]
+    sorted_keys, order = sort_with_order(keys)
     out = np.empty(faces.shape[0], np.int64)
     for c in range(faces.shape[0]):
         out[c] = region[order[np.searchsorted(sorted_keys, faces[c, 0] * width + faces[c, 1])]]

@@ -28,7 +28,7 @@ from thesis_rbd.collision.convex_contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
-    query_scratch,
+    query_scratch_for,
 )
 from thesis_rbd.collision.convex_hull_data import HullSet
 from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
@@ -90,7 +90,7 @@ class CollisionPipeline:
         self.hull_of_body = np.zeros(0, np.int64)
         self.convex_cache = empty_cache()
         self._hull_arrays = self.hulls.arrays()
-        self._query_scratch = query_scratch(self.hulls)
+        self._query_scratch = query_scratch_for(self.hulls)
         self._every_body_convex = self._any_body_convex = False
         self.box_offset = np.zeros((0, 3))
         self.box_half = np.zeros((0, 3))
@@ -119,7 +119,7 @@ class CollisionPipeline:
         hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
         self.hull_of_body = np.append(self.hull_of_body, hull)
         self._hull_arrays = self.hulls.arrays()
-        self._query_scratch = query_scratch(self.hulls)
+        self._query_scratch = query_scratch_for(self.hulls)
         self._every_body_convex = bool(np.all(self.hull_of_body >= 0))
         self._any_body_convex = bool(np.any(self.hull_of_body >= 0))
         # per-body copies of the mesh-frame box, so the bounds stage gathers nothing per step

@@ -47,9 +47,8 @@ def pairs_touch(
         floats = np.empty(OUTPUT_FLOATS * p)
         count = convex_contacts_for_pairs(
             convex_pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position,
-            orientation,
-            center_of_mass_local, cache_ints, cache_floats, cache_int_offset, cache_float_offset,
-            cache_count, 0.0, 0.0, ints, floats,
+            orientation, center_of_mass_local, cache_ints, cache_floats, cache_int_offset,
+            cache_float_offset, cache_count, 0.0, 0.0, ints, floats,
         )  # fmt: skip
         if count > 0:
             return True
