@@ -34,6 +34,34 @@ def _sorted(pairs):
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
+def _faces_under(tree, code):
+    """The faces under a code of ``tree`` (node ``k >= 0`` or face ``-k - 1``), by its
+    children array."""
+    faces, codes = [], [int(code)]
+    while codes:
+        k = codes.pop()
+        if k < 0:
+            faces.append(-k - 1)
+            continue
+        c0, c1 = (int(c) for c in tree.children[k])
+        codes.extend([c0] if c0 == c1 else [c0, c1])  # a classic leaf holds (-t-1, -t-1)
+    return faces
+
+
+def _pairs_under(tree_a, tree_b, code_pairs):
+    """Every face pair under each code pair, as a list (a pair under two code pairs twice)."""
+    return [
+        (face_a, face_b)
+        for x, y in code_pairs
+        for face_a in _faces_under(tree_a, x)
+        for face_b in _faces_under(tree_b, y)
+    ]
+
+
+def _every_pair(mesh_a, mesh_b):
+    return [(a, b) for a in range(len(mesh_a.faces)) for b in range(len(mesh_b.faces))]
+
+
 def _scene(kind_a, kind_b, seed):
     mesh_a = random_mesh(kind_a, seed)
     mesh_b = random_mesh(kind_b, seed + 1)
@@ -223,8 +251,9 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
     from thesis_rbd.collision.packed import layout
 
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
-    P_a = rbd.OBBTree(mesh_a, **variant_a).query_array()
-    P_b = rbd.OBBTree(mesh_b, **variant_b).query_array()
+    tree_a = rbd.OBBTree(mesh_a, **variant_a)
+    tree_b = rbd.OBBTree(mesh_b, **variant_b)
+    P_a, P_b = tree_a.query_array(), tree_b.query_array()
     La, Lb = layout(P_a), layout(P_b)
     M, t = relative_pose(np.asarray(T_a, dtype=np.float64), np.asarray(T_b, dtype=np.float64))
     expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
@@ -233,14 +262,19 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
         stack[0] = La[6], Lb[6]
         pairs = np.empty((1, 2), dtype=np.int64)
         counts = np.zeros(3, dtype=np.int64)
-        top, found, stops = 1, 0, 0
+        front = np.empty((1, 2), dtype=np.int64)
+        top, found, n_front, stops = 1, 0, 0, 0
         while True:
-            top, found = walk(first_only, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts)
+            top, found, n_front = walk(
+                first_only, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts, front, n_front
+            )
             if top == 0 or (first_only and found):
                 break
             stops += 1
             if found == len(pairs):
                 pairs = np.concatenate([pairs, np.empty_like(pairs)])
+            elif n_front == len(front):
+                front = np.concatenate([front, np.empty_like(front)])
             else:
                 stack = np.concatenate([stack, np.empty_like(stack)])
         # Any descent fills a two-row stack.
@@ -251,6 +285,9 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
                 assert tuple(pairs[0]) in set(map(tuple, expected))
         else:
             np.testing.assert_array_equal(_sorted(pairs[:found]), expected)
+            # Resumed whenever the front was full too, the front holds every pair not found.
+            under = _pairs_under(tree_a, tree_b, front[:n_front])
+            assert sorted(under + list(map(tuple, expected))) == _every_pair(mesh_a, mesh_b)
 
 
 @settings(max_examples=examples(20))
@@ -273,8 +310,69 @@ def test_walk_stack_has_room_for_every_walk(kind_a, kind_b, seed, variant_a, var
     stack[0] = La[6], Lb[6]
     pairs = np.empty((len(mesh_a.faces) * len(mesh_b.faces), 2), dtype=np.int64)
     counts = np.zeros(3, dtype=np.int64)
-    top, found = walk(False, P_a, La, P_b, Lb, M, t, stack, 1, pairs, 0, counts)
+    top, found, _ = walk(False, P_a, La, P_b, Lb, M, t, stack, 1, pairs, 0, counts, None, 0)
     assert top == 0
     np.testing.assert_array_equal(
         _sorted(pairs[:found]), brute_force_pairs(mesh_a, np.eye(4), mesh_b, T_b)
+    )
+
+
+@settings(max_examples=examples(30))
+@given(**SCENES, step=st.floats(0.0, 0.1))
+def test_a_walk_from_the_front_at_a_nearby_pose_finds_every_pair(
+    kind_a, kind_b, seed, variant_a, variant_b, step
+):
+    """A whole walk's front (the code pairs it found disjoint) and the pairs it found cover
+    every face pair exactly once, and no face pair under the front intersects; a walk at a
+    nearby pose that starts from them (as collide_batch's runs start from the previous
+    pose's front) finds exactly the brute-force pairs there."""
+    from scipy.spatial.transform import Rotation
+
+    from thesis_rbd.collision._query_args import relative_pose
+    from thesis_rbd.collision.collide import walk, walk_stack, with_room
+    from thesis_rbd.collision.packed import layout
+
+    mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
+    tree_a = rbd.OBBTree(mesh_a, **variant_a)
+    tree_b = rbd.OBBTree(mesh_b, **variant_b)
+    P_a, P_b = tree_a.query_array(), tree_b.query_array()
+    La, Lb = layout(P_a), layout(P_b)
+
+    def whole_walk(T, start):
+        M, t = relative_pose(T_a, T)
+        stack = walk_stack(P_a, P_b)
+        while len(stack) < len(start) + len(walk_stack(P_a, P_b)):
+            stack = with_room(stack)
+        stack[: len(start)] = start
+        pairs = np.empty((1, 2), dtype=np.int64)
+        front = np.empty((1, 2), dtype=np.int64)
+        top, found, n_front = len(start), 0, 0
+        counts = np.zeros(3, dtype=np.int64)
+        while top:
+            top, found, n_front = walk(
+                False, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts, front, n_front
+            )
+            if found == len(pairs):
+                pairs = with_room(pairs)
+            elif n_front == len(front):
+                front = with_room(front)
+            elif top:
+                stack = with_room(stack)
+        return pairs[:found], front[:n_front]
+
+    pairs, front = whole_walk(T_b, np.array([[La[6], Lb[6]]]))
+    expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
+    np.testing.assert_array_equal(_sorted(pairs), expected)
+    under = _pairs_under(tree_a, tree_b, front)
+    assert set(under).isdisjoint(map(tuple, expected))
+    assert sorted(under + list(map(tuple, expected))) == _every_pair(mesh_a, mesh_b)
+
+    rng = np.random.default_rng(seed)
+    nearby = T_b.copy()
+    nearby[:3, :3] = Rotation.from_rotvec(rng.normal(size=3) * step).as_matrix() @ T_b[:3, :3]
+    nearby[:3, 3] += rng.normal(size=3) * step * mesh_b.scale
+    start = np.concatenate([front, -pairs - 1])  # the found pairs as face codes
+    pairs_nearby, _ = whole_walk(nearby, start)
+    np.testing.assert_array_equal(
+        _sorted(pairs_nearby), brute_force_pairs(mesh_a, T_a, mesh_b, nearby)
     )

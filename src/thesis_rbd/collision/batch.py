@@ -10,7 +10,7 @@ equals the single query's.
 :func:`collide_batch` shares its poses out among numba's threads (``numba.set_num_threads``
 or ``NUMBA_NUM_THREADS``; by default one per core) and, along each thread's runs of
 consecutive poses, tries the triangle pair that intersected at the previous pose before
-walking the trees.
+walking the trees, and starts a walk after an apart pose from the pairs found disjoint there.
 """
 
 from __future__ import annotations
@@ -22,7 +22,6 @@ from numba import prange
 from thesis_rbd._jit import njit
 from thesis_rbd.collision._query_args import (
     call_normalised,
-    pose_at,
     pose_ok,
     relative_pose,
     sealed,
@@ -30,14 +29,20 @@ from thesis_rbd.collision._query_args import (
 from thesis_rbd.collision.collide import (
     faces_intersect,
     roots_disjoint,
-    traverse,
     walk,
     walk_stack,
+    with_room,
 )
 from thesis_rbd.collision.distance import pose_stacks, stacked_distances
 from thesis_rbd.collision.packed import layout
 
 __all__ = ["collide_batch", "distance_batch"]
+
+# Poses whose walks start from the front of the last walk from the roots (of the pose before
+# them); the next walks from the roots again.
+FRONT_POSES = 2
+# Rows of a run's first front (it grows as needed).
+FRONT_ROWS = 256
 
 # Runs of consecutive poses per thread: more runs even out the threads' work on a stack whose
 # costly poses cluster, fewer keep more of a path's witnesses (one is lost per run).
@@ -63,14 +68,19 @@ def _relative_pose_at(T_a, T_b, i, check_a, check_b):
 
 @njit
 def _collide_run(P_a, T_a, P_b, T_b, start, stop, colliding):
-    """Fill ``colliding[start:stop]``, trying the predecessor's witness before a traversal.
+    """Fill ``colliding[start:stop]``, each pose's walk starting from what an earlier pose's
+    walk learnt.
 
-    Poses along a path are close to each other, so the triangle pair found intersecting at
-    one pose usually still intersects at the next: where the previous pose collided and the
-    root boxes overlap, testing that one pair (a single triangle test) answers most
-    colliding poses of a path without a traversal. After a pose that did not collide (and
-    on a stack of unrelated poses, which mostly miss at the roots) the witness is not tried.
-    The answer is the traversal's either way (:func:`.collide.faces_intersect`).
+    Poses along a path are close to each other. Where the previous pose collided and the
+    root boxes overlap, the triangle pair found intersecting then is tested first: it
+    usually still intersects, which answers most colliding poses of a path with a single
+    triangle test. Where the previous pose was apart, the pairs that its walk from the roots
+    found disjoint (its front, :func:`.collide.walk`) start the walks of the next
+    ``FRONT_POSES`` poses: they mostly stay disjoint, and the boxes above them are not
+    tested again. Those walks' own fronts are not kept: a front only deepens (a pair found
+    disjoint is never merged back into its parent), and where the meshes part, a deepened
+    front keeps testing small boxes that a walk from the roots settles with a few large
+    ones. The answer is the traversal's either way.
 
     Each pose of a stack longer than one is checked here, as it is read (a stack of one is
     checked before the runs). Returns the index of the first pose that is not a finite rigid
@@ -80,9 +90,15 @@ def _collide_run(P_a, T_a, P_b, T_b, start, stop, colliding):
     Lb = layout(P_b)
     check_a = T_a.shape[0] > 1
     check_b = T_b.shape[0] > 1
-    # One stack and one witness row for the whole run (a traversal would allocate both).
+    # One stack, witness row and pair of fronts for the whole run (a traversal would
+    # allocate them).
     stack = walk_stack(P_a, P_b)
+    descent_rows = stack.shape[0]
     witness = np.empty((1, 2), dtype=np.int64)
+    anchor = np.empty((FRONT_ROWS, 2), dtype=np.int64)  # front of the last walk from the roots
+    front = np.empty((FRONT_ROWS, 2), dtype=np.int64)  # the current walk's
+    n_anchor = 0  # 0 where the previous pose leaves none to start from
+    anchor_age = 0
     previous_hit = False
     counts = np.zeros(3, dtype=np.int64)
     for i in range(start, stop):
@@ -91,22 +107,43 @@ def _collide_run(P_a, T_a, P_b, T_b, start, stop, colliding):
             return i
         if roots_disjoint(P_a, La, P_b, Lb, M, t):
             previous_hit = False
+            n_anchor = 0
             continue
         if previous_hit and faces_intersect(witness[0, 0], witness[0, 1], P_a, La, P_b, Lb, M, t):
             colliding[i] = True
             continue
-        stack[0, 0] = La[6]
-        stack[0, 1] = Lb[6]
-        top, found = walk(True, P_a, La, P_b, Lb, M, t, stack, 1, witness, 0, counts)
-        if top > 0 and found == 0:
-            # The stack ran out of room, which walk_stack's bound rules out; answer anyway.
-            pairs, _, _, _ = traverse(True, P_a, P_b, pose_at(T_a, i), pose_at(T_b, i))
-            found = pairs.shape[0]
-            if found:
-                witness[0, 0] = pairs[0, 0]
-                witness[0, 1] = pairs[0, 1]
+        from_anchor = n_anchor > 0 and anchor_age < FRONT_POSES
+        if from_anchor:
+            if stack.shape[0] < n_anchor + descent_rows:
+                stack = np.empty((n_anchor + descent_rows, 2), dtype=np.int64)
+            for row in range(n_anchor):
+                stack[row, 0] = anchor[row, 0]
+                stack[row, 1] = anchor[row, 1]
+            top = n_anchor
+            anchor_age += 1
+        else:
+            stack[0, 0] = La[6]
+            stack[0, 1] = Lb[6]
+            top = 1
+        n_front = 0
+        while True:
+            top, found, n_front = walk(
+                True, P_a, La, P_b, Lb, M, t, stack, top, witness, 0, counts, front, n_front
+            )
+            if top == 0 or found > 0:
+                break
+            if n_front == front.shape[0]:
+                front = with_room(front)
+            else:
+                stack = with_room(stack)
         colliding[i] = found > 0
         previous_hit = found > 0
+        if previous_hit:
+            n_anchor = 0
+        elif not from_anchor:
+            anchor, front = front, anchor
+            n_anchor = n_front
+            anchor_age = 0
     return -1
 
 

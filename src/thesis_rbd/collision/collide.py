@@ -186,9 +186,17 @@ def _tri_in_box(P, L, t, R, tr, Pk, Lk, k):
     return tri_box_overlap(v0, v1, v2, half_extent(Pk, Lk, k), reach)
 
 
+@njit(allocates=False)
+def _record_disjoint(front, n_front, x, y):
+    """Write the code pair (x, y) to ``front[n_front]``; return the new count."""
+    front[n_front, 0] = x
+    front[n_front, 1] = y
+    return n_front + 1
+
+
 @njit
-def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts):
-    """Walk two trees from the code pairs ``stack[:top]``; return ``(top, n_pairs)``.
+def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts, front, n_front):
+    """Walk two trees from the code pairs ``stack[:top]``; return ``(top, n_pairs, n_front)``.
 
     The traversal itself, over arrays the caller owns and never replaces: numba increfs and
     decrefs an array variable that a loop may reassign on every pass (atomic operations that
@@ -200,10 +208,17 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
     (unsorted); ``counts`` (3,) int64 accumulates the box-box, triangle-box and triangle
     tests. ``first_only`` stops at the first intersecting pair.
 
+    ``front`` (m, 2) int64, or None to keep none: every code pair found disjoint (boxes,
+    triangle and box, or two triangles) is written to ``front[n_front:]``. The pairs proved
+    disjoint by a walk that ends without finding one cover every triangle pair exactly once
+    (children partition their parent's triangles), so a walk from them at a nearby pose is
+    as complete as one from the roots, and skips the boxes above them (front tracking,
+    Ehmann and Lin 2001).
+
     The walk is done when the returned ``top`` is 0, or when ``first_only`` and a pair was
-    found. Otherwise it stopped, with its state intact, because ``pairs`` is full or the stack
-    has no room for the next split; the caller gives it a larger copy of that array and calls
-    again with the returned ``top`` and ``n_pairs``.
+    found. Otherwise it stopped, with its state intact, because ``pairs`` or ``front`` is full
+    or the stack has no room for the next split; the caller gives it a larger copy of that
+    array and calls again with the returned ``top``, ``n_pairs`` and ``n_front``.
     """
     leafless_a = La[7]
     leafless_b = Lb[7]
@@ -216,8 +231,13 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
     hy = (0.0, 0.0, 0.0)
+    front_rows = 0
+    if front is not None:
+        front_rows = front.shape[0]
     # A pop frees one row and a split fills two: a split needs room for one more.
     while top > 0 and top < stack.shape[0] and n_pairs < pairs.shape[0]:
+        if front is not None and n_front == front_rows:
+            break
         top -= 1
         x = stack[top, 0]
         y = stack[top, 1]
@@ -232,6 +252,8 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
                 hy = half_extent(Pb, Lb, y)
                 carried = y
             if _boxes_disjoint(x, Pa, La, g, c, hy):
+                if front is not None:
+                    n_front = _record_disjoint(front, n_front, x, y)
                 continue
             a_leaf = (not leafless_a) and child(Pa, La, x, 0) < 0
             b_leaf = (not leafless_b) and child(Pb, Lb, y, 0) < 0
@@ -275,6 +297,8 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
             else:
                 box_tests += 1
                 if not _tri_in_box(Pa, La, -x - 1, Mba, tba, Pb, Lb, y):
+                    if front is not None:
+                        n_front = _record_disjoint(front, n_front, x, y)
                     continue
                 stack[top, 0] = x
                 stack[top, 1] = child(Pb, Lb, y, 1)
@@ -290,6 +314,8 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
             else:
                 box_tests += 1
                 if not _tri_in_box(Pb, Lb, -y - 1, Mab, tab, Pa, La, x):
+                    if front is not None:
+                        n_front = _record_disjoint(front, n_front, x, y)
                     continue
                 stack[top, 0] = child(Pa, La, x, 1)
                 stack[top, 1] = y
@@ -305,10 +331,12 @@ def walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, count
             n_pairs += 1
             if first_only:
                 break
+        elif front is not None:
+            n_front = _record_disjoint(front, n_front, x, y)
     counts[0] += bv_tests
     counts[1] += box_tests
     counts[2] += tri_tests
-    return top, n_pairs
+    return top, n_pairs, n_front
 
 
 @njit
@@ -319,7 +347,7 @@ def walk_stack(Pa, Pb):
 
 
 @njit
-def _with_room(rows):
+def with_room(rows):
     """A copy of ``rows`` (k, 2) int64 with room for 2 k."""
     bigger = np.empty((2 * rows.shape[0], 2), dtype=np.int64)
     bigger[: rows.shape[0]] = rows
@@ -343,14 +371,16 @@ def traverse(first_only, Pa, Pb, T_a, T_b):
     stack[0, 1] = Lb[6]
     pairs = np.empty((1 if first_only else 64, 2), dtype=np.int64)
     counts = np.zeros(3, dtype=np.int64)
-    top, n_pairs = walk(first_only, Pa, La, Pb, Lb, Mab, tab, stack, 1, pairs, 0, counts)
+    top, n_pairs, _ = walk(
+        first_only, Pa, La, Pb, Lb, Mab, tab, stack, 1, pairs, 0, counts, None, 0
+    )
     while top > 0 and not (first_only and n_pairs > 0):
         if n_pairs == pairs.shape[0]:
-            pairs = _with_room(pairs)
+            pairs = with_room(pairs)
         else:
-            stack = _with_room(stack)
-        top, n_pairs = walk(
-            first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts
+            stack = with_room(stack)
+        top, n_pairs, _ = walk(
+            first_only, Pa, La, Pb, Lb, Mab, tab, stack, top, pairs, n_pairs, counts, None, 0
         )
     return pairs[:n_pairs], counts[0], counts[1], counts[2]
 
