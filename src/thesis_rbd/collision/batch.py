@@ -38,8 +38,8 @@ from thesis_rbd.collision.packed import layout
 
 __all__ = ["collide_batch", "distance_batch"]
 
-# Poses whose walks start from the front of the last walk from the roots (of the pose before
-# them); the next walks from the roots again.
+# How many poses after an apart one start their walks from its front (the pairs its walk from
+# the roots found disjoint); the pose after them walks from the roots again.
 FRONT_POSES = 2
 # Rows of a run's first front (it grows as needed).
 FRONT_ROWS = 256
