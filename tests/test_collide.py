@@ -62,6 +62,35 @@ def _every_pair(mesh_a, mesh_b):
     return [(a, b) for a in range(len(mesh_a.faces)) for b in range(len(mesh_b.faces))]
 
 
+def _resumed_walk(first_only, P_a, P_b, M, t, start):
+    """``walk`` from the code pairs ``start`` (k, 2) to its end, as the package's callers run
+    it: begun with one spare stack row and one row each for pairs and front, so that it stops
+    often, and resumed each time with the full array doubled. Returns (pairs, front, stops)."""
+    from thesis_rbd.collision.collide import walk, with_room
+    from thesis_rbd.collision.packed import layout
+
+    La, Lb = layout(P_a), layout(P_b)
+    stack = np.empty((len(start) + 1, 2), dtype=np.int64)
+    stack[: len(start)] = start
+    pairs = np.empty((1, 2), dtype=np.int64)
+    front = np.empty((1, 2), dtype=np.int64)
+    counts = np.zeros(3, dtype=np.int64)
+    top, found, n_front, stops = len(start), 0, 0, 0
+    while True:
+        top, found, n_front = walk(
+            first_only, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts, front, n_front
+        )
+        if top == 0 or (first_only and found):
+            return pairs[:found], front[:n_front], stops
+        stops += 1
+        if found == len(pairs):
+            pairs = with_room(pairs)
+        elif n_front == len(front):
+            front = with_room(front)
+        else:
+            stack = with_room(stack)
+
+
 def _scene(kind_a, kind_b, seed):
     mesh_a = random_mesh(kind_a, seed)
     mesh_b = random_mesh(kind_b, seed + 1)
@@ -247,46 +276,26 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
     pair, so it stops and resumes over and over, it must still find exactly the brute-force
     pairs (and the first pair in "first" mode)."""
     from thesis_rbd.collision._query_args import relative_pose
-    from thesis_rbd.collision.collide import walk
-    from thesis_rbd.collision.packed import layout
 
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
     tree_a = rbd.OBBTree(mesh_a, **variant_a)
     tree_b = rbd.OBBTree(mesh_b, **variant_b)
     P_a, P_b = tree_a.query_array(), tree_b.query_array()
-    La, Lb = layout(P_a), layout(P_b)
-    M, t = relative_pose(np.asarray(T_a, dtype=np.float64), np.asarray(T_b, dtype=np.float64))
+    M, t = relative_pose(T_a, T_b)
+    roots = np.array([[tree_a.root, tree_b.root]])
     expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
     for first_only in (False, True):
-        stack = np.empty((2, 2), dtype=np.int64)
-        stack[0] = La[6], Lb[6]
-        pairs = np.empty((1, 2), dtype=np.int64)
-        counts = np.zeros(3, dtype=np.int64)
-        front = np.empty((1, 2), dtype=np.int64)
-        top, found, n_front, stops = 1, 0, 0, 0
-        while True:
-            top, found, n_front = walk(
-                first_only, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts, front, n_front
-            )
-            if top == 0 or (first_only and found):
-                break
-            stops += 1
-            if found == len(pairs):
-                pairs = np.concatenate([pairs, np.empty_like(pairs)])
-            elif n_front == len(front):
-                front = np.concatenate([front, np.empty_like(front)])
-            else:
-                stack = np.concatenate([stack, np.empty_like(stack)])
+        pairs, front, stops = _resumed_walk(first_only, P_a, P_b, M, t, roots)
         # Any descent fills a two-row stack.
-        assert stops > 0 or len(expected) == 0 or La[6] < 0 or Lb[6] < 0
+        assert stops > 0 or len(expected) == 0 or tree_a.root < 0 or tree_b.root < 0
         if first_only:
-            assert found == min(1, len(expected))
-            if found:
+            assert len(pairs) == min(1, len(expected))
+            if len(pairs):
                 assert tuple(pairs[0]) in set(map(tuple, expected))
         else:
-            np.testing.assert_array_equal(_sorted(pairs[:found]), expected)
+            np.testing.assert_array_equal(_sorted(pairs), expected)
             # Resumed whenever the front was full too, the front holds every pair not found.
-            under = _pairs_under(tree_a, tree_b, front[:n_front])
+            under = _pairs_under(tree_a, tree_b, front)
             assert sorted(under + list(map(tuple, expected))) == _every_pair(mesh_a, mesh_b)
 
 
@@ -329,38 +338,17 @@ def test_a_walk_from_the_front_at_a_nearby_pose_finds_every_pair(
     from scipy.spatial.transform import Rotation
 
     from thesis_rbd.collision._query_args import relative_pose
-    from thesis_rbd.collision.collide import walk, walk_stack, with_room
-    from thesis_rbd.collision.packed import layout
 
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
     tree_a = rbd.OBBTree(mesh_a, **variant_a)
     tree_b = rbd.OBBTree(mesh_b, **variant_b)
     P_a, P_b = tree_a.query_array(), tree_b.query_array()
-    La, Lb = layout(P_a), layout(P_b)
 
     def whole_walk(T, start):
-        M, t = relative_pose(T_a, T)
-        stack = walk_stack(P_a, P_b)
-        while len(stack) < len(start) + len(walk_stack(P_a, P_b)):
-            stack = with_room(stack)
-        stack[: len(start)] = start
-        pairs = np.empty((1, 2), dtype=np.int64)
-        front = np.empty((1, 2), dtype=np.int64)
-        top, found, n_front = len(start), 0, 0
-        counts = np.zeros(3, dtype=np.int64)
-        while top:
-            top, found, n_front = walk(
-                False, P_a, La, P_b, Lb, M, t, stack, top, pairs, found, counts, front, n_front
-            )
-            if found == len(pairs):
-                pairs = with_room(pairs)
-            elif n_front == len(front):
-                front = with_room(front)
-            elif top:
-                stack = with_room(stack)
-        return pairs[:found], front[:n_front]
+        pairs, front, _ = _resumed_walk(False, P_a, P_b, *relative_pose(T_a, T), start)
+        return pairs, front
 
-    pairs, front = whole_walk(T_b, np.array([[La[6], Lb[6]]]))
+    pairs, front = whole_walk(T_b, np.array([[tree_a.root, tree_b.root]]))
     expected = brute_force_pairs(mesh_a, T_a, mesh_b, T_b)
     np.testing.assert_array_equal(_sorted(pairs), expected)
     under = _pairs_under(tree_a, tree_b, front)
