@@ -3,6 +3,7 @@ as a user meets it: a subprocess serving a page that headless Chromium draws, th
 whose buttons pause, step and reset the world, whose click on a body shows that body's state,
 and that Ctrl-C stops cleanly."""
 
+import logging
 import re
 import signal
 import socket
@@ -15,7 +16,12 @@ import numpy as np
 import pytest
 
 from tests.chromium import HeadlessChromium, canvas_rect, hide_notifications, require_chromium
-from thesis_rbd.viz.live import FALLING_BEHIND_SECONDS, PlaybackClock, stage_timings
+from thesis_rbd.viz.live import (
+    FALLING_BEHIND_SECONDS,
+    PlaybackClock,
+    _DroppedConnectionFilter,
+    stage_timings,
+)
 
 
 def test_clock_follows_the_wall_clock_at_its_speed():
@@ -53,6 +59,27 @@ def test_stage_timings_are_per_step_and_shares_of_the_staged_time():
     assert [row[0] for row in rows] == ["integrate", "bounds"]  # sleep did not run
     np.testing.assert_allclose([row[1] for row in rows], [15.0, 5.0])  # ms per step
     np.testing.assert_allclose([row[2] for row in rows], [0.75, 0.25])
+
+
+def handshake_record(error: BaseException) -> logging.LogRecord:
+    """The record websockets logs for a failed opening handshake that raised `error`."""
+    try:
+        raise error
+    except BaseException:
+        exc_info = sys.exc_info()
+    return logging.LogRecord(
+        "websockets.server", logging.ERROR, __file__, 0, "opening handshake failed", (), exc_info
+    )
+
+
+def test_only_connections_closed_before_a_request_are_left_unreported():
+    keep = _DroppedConnectionFilter().filter
+    closed = ValueError("did not receive a valid HTTP request")
+    closed.__cause__ = EOFError("connection closed while reading HTTP request line")
+    assert not keep(handshake_record(closed))
+    assert keep(handshake_record(ValueError("invalid Sec-WebSocket-Key")))
+    other = logging.LogRecord("websockets.server", logging.ERROR, "", 0, "boom", (), None)
+    assert keep(other)
 
 
 # ---------------------------------------------------------------------- the command
@@ -128,6 +155,10 @@ def reddish_share(shot, rect):
 def test_view_draws_the_scene_advances_obeys_its_buttons_and_stops_on_ctrl_c(live_view):
     process, url = live_view
     dt = 1.0 / 240.0  # the dzhanibekov scene's step
+    # a connection closed before it sends a request, as browsers close their spare ones: the
+    # view says nothing of it (checked on its stderr at the end)
+    host, port = re.search(r"//([^:/]+):(\d+)", url).groups()
+    socket.create_connection((host, int(port)), timeout=10).close()
     with HeadlessChromium(width=1000, height=700) as browser:
         browser.open(url)
         rect = canvas_rect(browser)

@@ -15,6 +15,7 @@ touched from two threads at once.
 from __future__ import annotations
 
 import collections
+import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -40,6 +41,32 @@ TIMING_WINDOW_SECONDS = 1.0  # the stage timings cover the steps of the last sec
 SPEEDS = ("0.1x", "0.25x", "0.5x", "1x", "2x", "4x", "as fast as it goes")
 FALLING_BEHIND_SECONDS = 0.25  # further behind the wall clock than this, the clock lets go
 KEPT_UP_SECONDS = 1.0  # no longer "falling behind" once it has kept up this long
+
+
+class _DroppedConnectionFilter(logging.Filter):
+    """Drops websockets' report of a connection the client closed before it sent a request.
+
+    Browsers open spare connections ahead of need and close them unused; websockets logs each
+    as a failed handshake with a traceback, which on the user's terminal reads as a crash of
+    the view. Any other handshake failure still gets through.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.getMessage() != "opening handshake failed" or not record.exc_info:
+            return True
+        error = record.exc_info[1]
+        while error is not None:
+            if isinstance(error, EOFError):
+                return False
+            error = error.__cause__
+        return True
+
+
+def _quiet_dropped_connections() -> None:
+    """Install :class:`_DroppedConnectionFilter` on websockets' server logger, once."""
+    logger = logging.getLogger("websockets.server")
+    if not any(isinstance(f, _DroppedConnectionFilter) for f in logger.filters):
+        logger.addFilter(_DroppedConnectionFilter())
 
 
 class PlaybackClock:
@@ -182,6 +209,7 @@ class LiveView:
         self._stop = threading.Event()
         self._timings: collections.deque = collections.deque()
         self.clock = PlaybackClock(self.world.dt)
+        _quiet_dropped_connections()
         self.server = viser.ViserServer(host=host, port=port, label=f"thesis-rbd: {scene.name}")
         self._build_panel(playing)
         self._build_scene_nodes()
