@@ -1,7 +1,7 @@
 """Slow, obviously correct oracle for the broad phase: all-pairs box tests and set bookkeeping.
 
-Nothing here is shared with ``thesis_rbd.collision.sap``: pairs come from an O(n^2) test of
-every pair with plain comparisons, events from Python set differences.
+Nothing here is shared with ``thesis_rbd.collision.broad_phase.sap``: pairs come from an
+O(n^2) test of every pair with plain comparisons, events from Python set differences.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Slow, independent oracle for the contacts dynamics acts on (``collision/manifold.py``).
+"""Slow, independent oracle for the contacts dynamics acts on (``collision/mesh/manifold.py``).
 
 Plain NumPy, sharing nothing with the library: for two convex polyhedra given as world-frame
 triangle meshes, the least-penetration axis by the separating-axis theorem over every face

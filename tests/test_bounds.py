@@ -8,13 +8,13 @@ from reference_broad_phase import brute_force_pairs
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.bounds import (
+from thesis_rbd.collision.broad_phase.bounds import (
     PREDICTION_STEPS,
     overlapping_pairs,
     tight_bounds,
     update_fat_bounds,
 )
-from thesis_rbd.collision.convex_contacts import SPECULATIVE_FRACTION
+from thesis_rbd.collision.convex.contacts import SPECULATIVE_FRACTION
 
 
 def tight_boxes(world, members=None, fast=None, speculative=0.0, reach=0.0):

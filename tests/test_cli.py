@@ -258,8 +258,8 @@ def test_the_summary_keeps_compiling_apart_from_the_stages(monkeypatch):
 
 
 def test_warmup_runs_every_part_and_leaves_nothing_to_compile():
-    from thesis_rbd.compile_log import CompileLog
-    from thesis_rbd.warmup import _collision_queries, warmup_tasks
+    from thesis_rbd._numba.compile_log import CompileLog
+    from thesis_rbd._numba.warmup import _collision_queries, warmup_tasks
 
     result = invoke("warmup")
     assert result.exit_code == 0, result.output

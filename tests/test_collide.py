@@ -66,8 +66,8 @@ def _resumed_walk(first_only, P_a, P_b, M, t, start):
     """``walk`` from the code pairs ``start`` (k, 2) to its end, as the package's callers run
     it: begun with one spare stack row and one row each for pairs and front, so that it stops
     often, and resumed each time with the full array doubled. Returns (pairs, front, stops)."""
-    from thesis_rbd.collision.collide import walk, with_room
-    from thesis_rbd.collision.packed import layout
+    from thesis_rbd.collision.mesh.packed import layout
+    from thesis_rbd.collision.queries.collide import walk, with_room
 
     La, Lb = layout(P_a), layout(P_b)
     stack = np.empty((len(start) + 1, 2), dtype=np.int64)
@@ -275,7 +275,7 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
     the caller resumes it with a larger copy: started with room for two stack rows and one
     pair, so it stops and resumes over and over, it must still find exactly the brute-force
     pairs (and the first pair in "first" mode)."""
-    from thesis_rbd.collision._query_args import relative_pose
+    from thesis_rbd.collision.queries._query_args import relative_pose
 
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
     tree_a = rbd.OBBTree(mesh_a, **variant_a)
@@ -304,9 +304,9 @@ def test_a_walk_resumed_whenever_it_runs_out_of_room_finds_every_pair(
 def test_walk_stack_has_room_for_every_walk(kind_a, kind_b, seed, variant_a, variant_b, overlap):
     """walk_stack sizes the stack from the tree depths (a descent adds at most one row per
     level): a whole "all" walk, meshes pushed into each other, never stops for room."""
-    from thesis_rbd.collision._query_args import relative_pose
-    from thesis_rbd.collision.collide import walk, walk_stack
-    from thesis_rbd.collision.packed import layout
+    from thesis_rbd.collision.mesh.packed import layout
+    from thesis_rbd.collision.queries._query_args import relative_pose
+    from thesis_rbd.collision.queries.collide import walk, walk_stack
 
     mesh_a = random_mesh(kind_a, seed)
     mesh_b = random_mesh(kind_b, seed + 1)
@@ -337,7 +337,7 @@ def test_a_walk_from_the_front_at_a_nearby_pose_finds_every_pair(
     pose's front) finds exactly the brute-force pairs there."""
     from scipy.spatial.transform import Rotation
 
-    from thesis_rbd.collision._query_args import relative_pose
+    from thesis_rbd.collision.queries._query_args import relative_pose
 
     mesh_a, T_a, mesh_b, T_b = _scene(kind_a, kind_b, seed)
     tree_a = rbd.OBBTree(mesh_a, **variant_a)

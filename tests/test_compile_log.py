@@ -7,8 +7,8 @@ import numba
 import pytest
 from rich.console import Console
 
+from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd._run_status import COMPILING_MESSAGE, COMPILING_NOTE, RunStatus
-from thesis_rbd.compile_log import CompileLog
 
 
 def fresh_kernels():
@@ -105,8 +105,8 @@ def test_status_says_it_once_on_one_line_elsewhere_and_nothing_when_quiet():
 
 
 def test_warmup_ranks_kernels_by_own_time_summed_over_signatures():
-    from thesis_rbd.compile_log import KernelCompile
-    from thesis_rbd.warmup import slowest_kernels
+    from thesis_rbd._numba.compile_log import KernelCompile
+    from thesis_rbd._numba.warmup import slowest_kernels
 
     def record(name, own):
         return KernelCompile(name, "(float64)", own + 1.0, own, own, own, 0)

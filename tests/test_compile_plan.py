@@ -12,7 +12,7 @@ import pytest
 from numba.core import types
 
 from thesis_rbd import scenes
-from thesis_rbd.compile_plan import (
+from thesis_rbd._numba.compile_plan import (
     decode_type,
     encode_type,
     load_plan,
@@ -80,7 +80,7 @@ RUN_PROJECTILE = """
 import json
 
 from thesis_rbd import scenes
-from thesis_rbd.compile_log import CompileLog
+from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd.trajectory import simulate
 
 with CompileLog() as log:
@@ -93,7 +93,7 @@ def test_a_run_loads_what_a_helper_compiled(tmp_path):
     """A helper compiles projectile's plan into an empty cache; the run that follows compiles
     none of the package's kernels: it loads them."""
     cache = tmp_path / "cache"
-    helper = [sys.executable, "-m", "thesis_rbd.compile_helpers", "--scene", "projectile"]
+    helper = [sys.executable, "-m", "thesis_rbd._numba.compile_helpers", "--scene", "projectile"]
     subprocess.run(helper, env=_environment(cache), check=True, timeout=600)
     ran = subprocess.run(
         [sys.executable, "-c", RUN_PROJECTILE],

@@ -16,8 +16,8 @@ from reference import (
 )
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.collide import MERGE_FRACTION
-from thesis_rbd.collision.contacts import least_penetration, merge_contacts
+from thesis_rbd.collision.mesh.contact_report import least_penetration, merge_contacts
+from thesis_rbd.collision.queries.collide import MERGE_FRACTION
 
 
 def _world_triangles(mesh, T):

@@ -10,10 +10,10 @@ from scipy.spatial.transform import Rotation
 import thesis_rbd as rbd
 from tests.reference_convex import least_penetration
 from tests.test_convex_contacts import Pair, face_pairs, pairs
-from thesis_rbd.collision.convex_box import box_box_query
-from thesis_rbd.collision.convex_contacts import SPECULATIVE_FRACTION
-from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.convex_sat import (
+from thesis_rbd.collision.convex.box import box_box_query
+from thesis_rbd.collision.convex.contacts import SPECULATIVE_FRACTION
+from thesis_rbd.collision.convex.hull_data import HullSet
+from thesis_rbd.collision.convex.sat import (
     EDGES,
     FACE_A,
     edge_pair_separation,

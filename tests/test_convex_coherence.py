@@ -16,10 +16,10 @@ from scipy.spatial.transform import Rotation
 import thesis_rbd as rbd
 from tests.reference_convex import least_penetration
 from tests.test_convex_contacts import Pair, face_pairs, pairs
-from thesis_rbd.collision.convex_coherence import certify_face_axis
-from thesis_rbd.collision.convex_contacts import _TIE, cache_views
-from thesis_rbd.collision.convex_hull_data import unpack_hulls
-from thesis_rbd.collision.convex_sat import FACE_A, FACE_B
+from thesis_rbd.collision.convex.coherence import certify_face_axis
+from thesis_rbd.collision.convex.contacts import _TIE, cache_views
+from thesis_rbd.collision.convex.hull_data import unpack_hulls
+from thesis_rbd.collision.convex.sat import FACE_A, FACE_B
 
 
 def relative_frame(pair):

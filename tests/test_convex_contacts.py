@@ -20,7 +20,7 @@ from tests.reference_convex import (
     least_penetration,
     polygon_area,
 )
-from thesis_rbd.collision.convex_contacts import (
+from thesis_rbd.collision.convex.contacts import (
     _TIE,
     SPECULATIVE_FRACTION,
     _scratch_arrays,
@@ -31,8 +31,8 @@ from thesis_rbd.collision.convex_contacts import (
     pair_key,
     query_scratch_for,
 )
-from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.convex_sat import EDGES
+from thesis_rbd.collision.convex.hull_data import HullSet
+from thesis_rbd.collision.convex.sat import EDGES
 
 
 def random_hull_mesh(seed, count):
@@ -304,7 +304,7 @@ def test_convex_path_agrees_with_the_mesh_path(pair):
     Shallow contacts only: the mesh path finds contacts where surfaces cross, so it sees
     nothing of a body swallowed whole and judges a deep one by its crossing region.
     """
-    from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
+    from thesis_rbd.collision.mesh.narrow_phase import GeometrySet, contacts_for_pairs
 
     depth, _normal, runner_up, _, _ = least_penetration(pair.points_a, pair.points_b)
     assume(depth > 1e-9 * pair.size and runner_up > depth + 1e-8 * pair.size)

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull as ScipyHull
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.convex_hull_data import (
+from thesis_rbd.collision.convex.hull_data import (
     _FIELDS,
     HullSet,
     convex_hull,

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.convex_contacts import cache_views
+from thesis_rbd.collision.convex.contacts import cache_views
 
 FLOOR = rbd.shapes.box((6.0, 6.0, 1.0))
 CUBE = rbd.shapes.box((1.0, 1.0, 1.0))

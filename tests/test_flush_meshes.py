@@ -19,8 +19,8 @@ from reference_exact import exact_pairs, kernel_frame_corners, tri_tri_exact
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.collide import _relative_pose
-from thesis_rbd.collision.packed import corner_moved, layout
+from thesis_rbd.collision.mesh.packed import corner_moved, layout
+from thesis_rbd.collision.queries.collide import _relative_pose
 from validation.cad_parts import PARTS, placement
 
 # Parts that certainly meet their copy when pushed in: planar faces at every extreme, still

@@ -3,12 +3,12 @@
 import importlib.util
 import itertools
 
-from thesis_rbd import _jit
+from thesis_rbd._numba import jit as _jit
 
 _LOADS = itertools.count()
 
 KERNEL = """
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 
 @njit

@@ -9,10 +9,10 @@ import textwrap
 import numpy as np
 import pytest
 
-from thesis_rbd._kernel_lock import kernel_lock
+from thesis_rbd._numba.kernel_lock import kernel_lock
 
 KERNEL = """
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 
 @njit
@@ -31,8 +31,8 @@ import sys
 import numpy as np
 from numba.core import event
 
-from thesis_rbd._kernel_lock import WAIT_EVENT
-from thesis_rbd.compile_log import CompileLog
+from thesis_rbd._numba.kernel_lock import WAIT_EVENT
+from thesis_rbd._numba.compile_log import CompileLog
 import locked_kernel
 
 
@@ -53,7 +53,7 @@ print(f"done {answer} compiles={len(log.records)} waits={len(log.waits)}", flush
 PEEK = """
 from numba.core import types
 
-from thesis_rbd._kernel_lock import kernel_lock
+from thesis_rbd._numba.kernel_lock import kernel_lock
 import locked_kernel
 
 args = (types.Array(types.float64, 1, "C"),)

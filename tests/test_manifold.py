@@ -1,4 +1,4 @@
-"""The contacts dynamics acts on (``collision/manifold.py``, read from a detection-only World)
+"""The contacts dynamics acts on (``collision/mesh/manifold.py``, read from a detection-only World)
 against an exact oracle for convex pairs (``tests/reference_manifold.py``) and python-fcl.
 
 Two convex bodies are placed with a corner of B pushed into A along a random direction (or

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from reference import boxes_overlap_lp, covariance_axes_reference, examples
 from scipy.spatial.transform import Rotation
 
-from thesis_rbd.collision.obb import obb_disjoint, symmetric_eigenvectors, triangle_moments
+from thesis_rbd.collision.mesh.obb import obb_disjoint, symmetric_eigenvectors, triangle_moments
 
 
 def _disjoint(c1, R1, h1, c2, R2, h2):
@@ -115,7 +115,7 @@ def test_covariance_of_a_box_surface_has_its_axes():
 def test_hull_matches_qhull(seed, n):
     from scipy.spatial import ConvexHull
 
-    from thesis_rbd.collision.hull import hull_faces, hull_moments
+    from thesis_rbd.collision.mesh.obb_hull import hull_faces, hull_moments
 
     rng = np.random.default_rng(seed)
     P = rng.normal(size=(n, 3)) * rng.uniform(0.1, 2.0, 3)
@@ -133,7 +133,7 @@ def test_hull_matches_qhull(seed, n):
 
 
 def test_hull_of_flat_or_tiny_sets_is_empty():
-    from thesis_rbd.collision.hull import hull_faces
+    from thesis_rbd.collision.mesh.obb_hull import hull_faces
 
     rng = np.random.default_rng(1)
     flat = np.column_stack([rng.normal(size=(30, 2)), np.zeros(30)])
@@ -146,7 +146,7 @@ def test_hull_fit_is_tessellation_independent():
     # Gottschalk's point: a box mesh with one face finely subdivided biases the triangle
     # covariance but not the hull's, whose axes stay the box's.
     import thesis_rbd as rbd
-    from thesis_rbd.collision.hull import hull_moments
+    from thesis_rbd.collision.mesh.obb_hull import hull_moments
 
     mesh = rbd.shapes.box((3.0, 2.0, 1.0)).to_trimesh()
     mesh = mesh.subdivide(face_index=np.flatnonzero(mesh.face_normals[:, 0] > 0.5))

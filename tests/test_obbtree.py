@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from reference import MESH_KINDS, examples, random_mesh
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.obbtree import OBBTree
+from thesis_rbd.collision.mesh.obbtree import OBBTree
 
 OPTIONS = [
     dict(leafless=lf, dtype=dt, fit=fit)

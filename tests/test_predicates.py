@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from reference import examples
 from scipy.spatial.transform import Rotation
 
-from thesis_rbd.collision.predicates import orient2d, orient3d, plane_sides
+from thesis_rbd.collision.mesh.predicates import orient2d, orient3d, plane_sides
 
 
 def _sign(x) -> int:

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from reference import examples, random_pose
 
 from thesis_rbd._validate import as_rigid_transform
-from thesis_rbd.collision._query_args import pose_ok
+from thesis_rbd.collision.queries._query_args import pose_ok
 
 # Faults far from the tolerance (1e-6) on either side, so rounding cannot decide the answer.
 FAULTS = [0.0, 1e-9, -1e-9, 1e-3, -0.5, 2.0, np.nan, np.inf, -np.inf]

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 from reference_broad_phase import BroadPhaseOracle, brute_force_pairs
 
 import thesis_rbd as rbd
-from thesis_rbd.collision import pair_table
-from thesis_rbd.collision._sap_grid import choose_grid, compute_cells
-from thesis_rbd.collision.sap import SweepAndPrune
+from thesis_rbd.collision.broad_phase import pair_table
+from thesis_rbd.collision.broad_phase._sap_grid import choose_grid, compute_cells
+from thesis_rbd.collision.broad_phase.sap import SweepAndPrune
 
 # ---------------------------------------------------------------- helpers
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 KERNELS = """
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 
 @njit(separate=True)

@@ -1,4 +1,4 @@
-"""Steady steps run in one kernel call (``steady_steps.py``) and must be the staged steps.
+"""Steady steps run in one kernel call (``world/steady_steps.py``) and must be the staged steps.
 
 The oracle is the world's own stage-by-stage path (the one every other scene takes): a world
 told that no step is steady runs it. Both must give the same state, contacts, profile call
@@ -13,8 +13,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.stage_names import STAGE_NAMES
-from thesis_rbd.steady_steps import FINISHED
+from thesis_rbd.world.stage_names import STAGE_NAMES
+from thesis_rbd.world.steady_steps import FINISHED
 
 DT = 1.0 / 240.0
 

@@ -12,13 +12,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.time_of_impact import (
-    HALVINGS,
-    bisect_to_contact,
-    group_contacts,
-    move_ballistic,
-)
 from thesis_rbd.collision.touching import pairs_touch
+from thesis_rbd.dynamics.ballistic import move_ballistic
+from thesis_rbd.world.time_of_impact import HALVINGS, bisect_to_contact, group_contacts
 
 DT = 1.0 / 240.0
 SHAPES = {

@@ -15,7 +15,7 @@ from reference import examples, tri_box_lp, tri_tri_lp, tri_tri_sat
 from reference_exact import tri_box_exact, tri_tri_exact
 from scipy.spatial.transform import Rotation
 
-from thesis_rbd.collision.triangle import triangle_box_overlap, triangles_overlap
+from thesis_rbd.collision.mesh.triangle import triangle_box_overlap, triangles_overlap
 
 # The predicates are exact while no product of coordinate differences underflows (see
 # predicates.py): magnitudes below 1e-30 are drawn as zero.

@@ -34,9 +34,9 @@ def record_scene(name: str, out: Path) -> None:
     from numba.core import event
 
     from thesis_rbd import scenes
-    from thesis_rbd.compile_plan import encode_type
+    from thesis_rbd._numba.compile_plan import encode_type
+    from thesis_rbd._numba.warmup import SCENE_SECONDS
     from thesis_rbd.trajectory import simulate
-    from thesis_rbd.warmup import SCENE_SECONDS
 
     entries = []
 
@@ -78,7 +78,7 @@ def main() -> None:
 
     sys.path.insert(0, str(ROOT / "src"))
     from thesis_rbd import scenes
-    from thesis_rbd.compile_plan import PLAN_PATH, CompilePlan, PlannedCompile
+    from thesis_rbd._numba.compile_plan import PLAN_PATH, CompilePlan, PlannedCompile
 
     names = scenes.names()
     with tempfile.TemporaryDirectory() as scratch:

@@ -34,10 +34,10 @@ import time
 
 import numpy as np
 
-from thesis_rbd._jit import njit
-from thesis_rbd.collision.collide import _boxes_disjoint
-from thesis_rbd.collision.packed import carry_box, half_extent, layout
-from thesis_rbd.collision.triangle import tri_tri_overlap
+from thesis_rbd._numba.jit import njit
+from thesis_rbd.collision.mesh.packed import carry_box, half_extent, layout
+from thesis_rbd.collision.mesh.triangle import tri_tri_overlap
+from thesis_rbd.collision.queries.collide import _boxes_disjoint
 from validation.triangle_sat import triangles_overlap
 
 __all__ = [
@@ -421,7 +421,7 @@ def record_aabb_traversal(tree_a, T_a, tree_b, T_b):
 def _obb_record(Pa, cha, Pb, hb, chb, M, tr):
     """The classic (leaf) OBB tree's "all" traversal, logging its tests.
 
-    Mirrors :func:`thesis_rbd.collision.collide.traverse` for two leaf trees (no first-mode
+    Mirrors :func:`thesis_rbd.collision.queries.collide.traverse` for two leaf trees (no first-mode
     child ordering); trees as their packed query arrays for the box tests, plus the arrays
     the descent reads. Returns (box_log (nv, 2), tri_log (np, 2)).
     """

@@ -24,14 +24,14 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
-from thesis_rbd.collision.convex_contacts import (
+from thesis_rbd.collision.convex.contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
     query_scratch_for,
 )
-from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
+from thesis_rbd.collision.convex.hull_data import HullSet
+from thesis_rbd.collision.mesh.narrow_phase import GeometrySet, contacts_for_pairs
 
 COUNT = 1000
 SHAPES = ("box", "icosphere")

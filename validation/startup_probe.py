@@ -3,8 +3,8 @@
     python -m validation.startup_probe SCENE SECONDS RECORD.json [HELPERS]
 
 runs ``thesis-rbd run SCENE --seconds SECONDS --quiet [--compile-helpers HELPERS]`` in this
-process (the console script's
-own entry point, :func:`thesis_rbd.cli.main`) under a :class:`thesis_rbd.compile_log.CompileLog`,
+process (the console script's own entry point, :func:`thesis_rbd.cli.main`) under a
+:class:`thesis_rbd._numba.compile_log.CompileLog`,
 and writes the compiles to RECORD.json. The caller times the whole process, interpreter start
 included; :mod:`validation.studies.startup` starts it in a fresh process per measurement.
 """
@@ -20,8 +20,8 @@ from time import perf_counter
 def main(argv: list[str]) -> int:
     scene, seconds, record_path, *helpers = argv
     started = perf_counter()
+    from thesis_rbd._numba.compile_log import CompileLog
     from thesis_rbd.cli import main as command_line
-    from thesis_rbd.compile_log import CompileLog
 
     imported = perf_counter() - started
     with CompileLog() as log:

@@ -1,6 +1,6 @@
 """Triangle-triangle overlap by the separating-axis theorem: the AABB tree's own leaf test.
 
-Written apart from the library's triangle tests (``thesis_rbd.collision.triangle``: Guigue
+Written apart from the library's triangle tests (``thesis_rbd.collision.mesh.triangle``: Guigue
 and Devillers with a fallback) so that the AABB tree of :mod:`validation.aabb_tree` is an
 independent oracle of the OBB tree's pair sets, not the same test reached by another
 traversal.
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["triangles_overlap"]
 

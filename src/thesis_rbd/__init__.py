@@ -20,7 +20,7 @@ from thesis_rbd.collision import (
     distance_batch,
     ray_cast,
 )
-from thesis_rbd.collision.sap import SweepAndPrune
+from thesis_rbd.collision.broad_phase.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate

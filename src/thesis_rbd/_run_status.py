@@ -40,7 +40,7 @@ class RunStatus:
     -----
     Called as ``status(steps_done, steps_total)`` it is the progress callback of
     :func:`thesis_rbd.simulate`; :meth:`compiling` is told the kernel numba compiles (or None
-    once it is done) by a :class:`thesis_rbd.compile_log.CompileLog`.
+    once it is done) by a :class:`thesis_rbd._numba.compile_log.CompileLog`.
     """
 
     def __init__(

@@ -4,7 +4,7 @@ float keys stably.
 ``np.argsort``, ``np.sort`` and ``np.unique`` inside a kernel compile numba's own sorts: a
 family of about six functions per algorithm (quicksort, mergesort), key type and variant
 (sort or argsort). numba keeps them in no on-disk cache, so every first run compiles them
-again, and so does each process compiling kernels beside it (:mod:`.compile_helpers`). The
+again, and so does each process compiling kernels beside it (:mod:`._numba.compile_helpers`). The
 kernels here are the package's own: compiled once per key type, and cached like every other
 kernel.
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["sort_with_order", "sorted_copy", "stable_argsort", "unique_sorted"]
 

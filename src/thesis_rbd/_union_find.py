@@ -5,7 +5,7 @@ Shared by everything that groups: contact islands, contact clusters, contact reg
 
 from __future__ import annotations
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["find_root", "join"]
 

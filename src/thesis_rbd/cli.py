@@ -38,10 +38,10 @@ import typer
 
 from thesis_rbd import scenes as builtin_scenes
 from thesis_rbd._atomic import atomic_path, check_writable_folder
+from thesis_rbd._numba.compile_helpers import CompileHelpers
+from thesis_rbd._numba.compile_log import CompileLog
+from thesis_rbd._numba.stage_ledger import StageLedger
 from thesis_rbd._run_status import RunStatus
-from thesis_rbd._stage_ledger import StageLedger
-from thesis_rbd.compile_helpers import CompileHelpers
-from thesis_rbd.compile_log import CompileLog
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.scene import Scene, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
@@ -418,7 +418,7 @@ def warmup(
     Runs each built-in scene for a simulated second and the collision queries once; numba keeps
     what it compiles in its cache. Reports each part's time and the slowest kernels.
     """
-    from thesis_rbd.warmup import WarmupTask, slowest_kernels, warm_up, warmup_tasks
+    from thesis_rbd._numba.warmup import WarmupTask, slowest_kernels, warm_up, warmup_tasks
 
     helpers = CompileHelpers(None, compile_helpers)
     tasks = warmup_tasks()

@@ -83,8 +83,9 @@ class _Scene:
     """
 
     def __init__(self, kinds, count, seed):
-        from thesis_rbd.collision import convex_contacts, narrow_phase
-        from thesis_rbd.collision.convex_hull_data import HullSet
+        from thesis_rbd.collision.convex import contacts as convex_contacts
+        from thesis_rbd.collision.convex.hull_data import HullSet
+        from thesis_rbd.collision.mesh import narrow_phase
 
         self._convex_contacts = convex_contacts.convex_contacts
         self._speculative = convex_contacts.SPECULATIVE_FRACTION

@@ -6,10 +6,10 @@ them. Each case starts fresh Python processes, as a user's shell would:
 
 - a cold start: ``thesis-rbd run SCENE --seconds 1`` with ``NUMBA_CACHE_DIR`` pointed at an
   empty folder of its own, timed from process start to exit, with numba's compile events
-  recorded (:class:`thesis_rbd.compile_log.CompileLog`, through
+  recorded (:class:`thesis_rbd._numba.compile_log.CompileLog`, through
   :mod:`validation.startup_probe`) for the time spent compiling and per kernel; at the
   command's default, helper processes compile shares of the scene's kernels on the spare
-  cores (:mod:`thesis_rbd.compile_helpers`), and the pyramid starts cold once more with none
+  cores (:mod:`thesis_rbd._numba.compile_helpers`), and the pyramid starts cold once more with none
   (``--compile-helpers 0``), which is where the per-kernel tables come from;
 - warm starts: the same command again, on the cache the cold start filled (the fastest of a
   few), which is what every later run costs;
@@ -149,7 +149,7 @@ def _probe(
 def _scene_starts(
     scene: str, seconds: float, cold: bool, warm_runs: int, helpers: int | None
 ) -> dict:
-    from thesis_rbd.compile_helpers import spare_cores
+    from thesis_rbd._numba.compile_helpers import spare_cores
 
     with tempfile.TemporaryDirectory(prefix="thesis-rbd-startup-") as temporary:
         folder = Path(temporary)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 
 @njit

@@ -25,7 +25,7 @@ from collections.abc import Iterator, Mapping
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["CONTACT_KEYS", "FLOAT_WIDTH", "INT_WIDTH", "ContactSet", "contact_views"]
 

@@ -1,38 +1,38 @@
 """The detection stages of a world step: bounds -> broad phase -> narrow phase -> tunnelling.
 
 Rapier-style, the stages talk through explicit arrays that one returns and the next takes:
-``bounds`` checks every moving body against the fat box the broad phase keeps for it, refits
-the fat boxes when one was left (``bounds.py``) and returns the fast bodies; ``broad_phase``
-brings the sweep-and-prune pair cache up to date only when the fat boxes changed and returns
-the candidate pairs worth testing (tight boxes overlap, never static-static, never two resting
-bodies); ``narrow_phase`` turns candidate pairs into contacts (a ``ContactSet``, world frame,
-normals from body_b towards body_a); ``sweep`` puts back fast bodies that passed through
-something and returns the contacts with theirs. Fat boxes only add pairs for the tight-box
-test, so the candidates are those of a broad phase on tight boxes, while bodies in steady
-motion need a sweep-and-prune update only every hundred steps or so. What the pipeline keeps
-between steps is its own: the trees, the fat boxes and the sweep-and-prune state.
+``bounds`` checks every moving body against the fat box the broad phase keeps for it, refits the
+fat boxes when one was left (``broad_phase/bounds.py``) and returns the fast bodies;
+``broad_phase`` brings the sweep-and-prune pair cache up to date only when the fat boxes changed
+and returns the candidate pairs worth testing (tight boxes overlap, never static-static, never
+two resting bodies); ``narrow_phase`` turns candidate pairs into contacts (a ``ContactSet``,
+world frame, normals from body_b towards body_a); ``sweep`` puts back fast bodies that passed
+through something and returns the contacts with theirs. Fat boxes only add pairs for the
+tight-box test, so the candidates are those of a broad phase on tight boxes, while bodies in
+steady motion need a sweep-and-prune update only every hundred steps or so. What the pipeline
+keeps between steps is its own: the trees, the fat boxes and the sweep-and-prune state.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd.collision.bounds import (
+from thesis_rbd.collision.broad_phase.bounds import (
     PREDICTION_STEPS,
     candidate_pairs,
     tight_bounds,
     update_fat_bounds,
 )
+from thesis_rbd.collision.broad_phase.sap import SweepAndPrune
 from thesis_rbd.collision.contact_set import ContactSet
-from thesis_rbd.collision.convex_contacts import (
+from thesis_rbd.collision.convex.contacts import (
     SPECULATIVE_FRACTION,
     convex_contacts,
     empty_cache,
     query_scratch_for,
 )
-from thesis_rbd.collision.convex_hull_data import HullSet
-from thesis_rbd.collision.narrow_phase import GeometrySet, contacts_for_pairs
-from thesis_rbd.collision.sap import SweepAndPrune
+from thesis_rbd.collision.convex.hull_data import HullSet
+from thesis_rbd.collision.mesh.narrow_phase import GeometrySet, contacts_for_pairs
 from thesis_rbd.collision.touching import pairs_touch
 
 __all__ = ["NARROW_PHASES", "CollisionPipeline"]
@@ -60,8 +60,8 @@ class CollisionPipeline:
     hull_of_body : (n,) int64
         Hull index of each body, -1 for a body that collides as a mesh.
     convex_cache : tuple
-        Coherence cache of the convex pairs (``convex_contacts.empty_cache``; its arrays by
-        ``convex_contacts.cache_views``), from the last ``narrow_phase`` stage.
+        Coherence cache of the convex pairs (``convex.contacts.empty_cache``; its arrays by
+        ``convex.contacts.cache_views``), from the last ``narrow_phase`` stage.
     box_offset, box_half : (n, 3) float64
         Mesh-frame box of each body: centre offset from the centre of mass, half-extents.
     fat : (2, n, 3) float64
@@ -138,7 +138,7 @@ class CollisionPipeline:
             now: the world plans again whenever they are replaced (a body added).
         reach : float
             Gap (>= 0) that any convex pair gets speculative contacts across, whatever the
-            bodies' sizes (see ``convex_contacts``): the world's fall in one step.
+            bodies' sizes (see ``convex.contacts``): the world's fall in one step.
         """
         static, collidable = bodies.static, bodies.collidable
         n = len(static)

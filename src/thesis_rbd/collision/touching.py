@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
-from thesis_rbd.collision.convex_contacts import (
+from thesis_rbd._numba.jit import njit
+from thesis_rbd.collision.convex.contacts import (
     OUTPUT_FLOATS,
     OUTPUT_INTS,
     convex_contacts_for_pairs,
 )
-from thesis_rbd.collision.narrow_phase import any_intersection
+from thesis_rbd.collision.mesh.narrow_phase import any_intersection
 
 __all__ = ["pairs_touch"]
 
@@ -33,7 +33,7 @@ def pairs_touch(
     ``position``, ``orientation``, ``center_of_mass_local`` are the body poses; the hull
     and cache arguments are as ``convex_contacts_for_pairs`` takes them (a pair is convex
     when both bodies have a hull, ``hull_of_body`` >= 0), ``geometry_of_body`` and
-    ``geometry_arrays`` as ``narrow_phase.any_intersection`` takes them (``geometry_arrays``
+    ``geometry_arrays`` as ``mesh.narrow_phase.any_intersection`` takes them (``geometry_arrays``
     None when every body is convex). Convex pairs are asked first, in the order given, then
     the others.
     """

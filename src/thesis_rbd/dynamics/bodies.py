@@ -21,7 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["BodyArrays", "copy_state"]
 

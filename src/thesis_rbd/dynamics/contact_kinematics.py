@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
 __all__ = [

@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.lcp import lemke
 from thesis_rbd.dynamics.pgs import build_rows, friction_polygon, sweep_island
 

@@ -5,7 +5,7 @@ step (the contact stage did not act on it), it penetrates and it approaches: the
 other during the step. A penetrating contact that recedes is a hit too if the pair was apart
 at the start of the step (the body flew past the middle of a thin one). ``find_hits`` names
 the first kind and the candidates of the second; the collision side
-(``collision/time_of_impact.py``) checks those candidates and steps the bodies back to the
+(``world/time_of_impact.py``) checks those candidates and steps the bodies back to the
 time of impact; ``resolve_impacts`` then resolves each island with a stepped-back body in
 two phases:
 
@@ -33,10 +33,10 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision.contact_set import contact_views
-from thesis_rbd.collision.time_of_impact import move_ballistic
 from thesis_rbd.dynamics import contact_settings as cs
+from thesis_rbd.dynamics.ballistic import move_ballistic
 from thesis_rbd.dynamics.contact_kinematics import (
     body_velocities,
     contact_arms,

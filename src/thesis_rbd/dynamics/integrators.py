@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.spatial.quaternion import conjugate, derivative, normalize, rotate
 
 __all__ = ["INTEGRATORS", "body_forces", "integrate_bodies"]

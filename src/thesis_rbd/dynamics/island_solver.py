@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import relative_velocity
 from thesis_rbd.dynamics.contact_solver import solve_exact

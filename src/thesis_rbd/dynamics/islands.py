@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd._sorting import stable_argsort
 from thesis_rbd._union_find import find_root, join
 

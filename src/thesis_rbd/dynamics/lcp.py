@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["LCP_STATUS", "lemke", "projected_gauss_seidel"]
 

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = [
     "apply_warm_start",

@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd._sorting import stable_argsort
 from thesis_rbd.collision.contact_set import contact_views
 from thesis_rbd.dynamics import contact_settings as cs

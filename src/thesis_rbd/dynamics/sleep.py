@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.islands import find_islands
 from thesis_rbd.spatial.quaternion import conjugate, rotate
 

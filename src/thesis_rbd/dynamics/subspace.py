@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.pgs import (
     _apply_three_rows,
     _row_velocity,

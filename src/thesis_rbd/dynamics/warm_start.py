@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = ["MATCH_FRACTION", "WarmStart", "find_warm_impulses", "pair_keys"]
 

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd._jit import njit
+from thesis_rbd._numba.jit import njit
 
 __all__ = [
     "conjugate",

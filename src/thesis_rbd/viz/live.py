@@ -23,7 +23,7 @@ from time import perf_counter, sleep
 
 import numpy as np
 
-from thesis_rbd.compile_log import CompileLog
+from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd.scene import Scene
 from thesis_rbd.viz.viser_scene import (
     BodyNodes,

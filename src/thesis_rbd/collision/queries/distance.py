@@ -1,0 +1,453 @@
+"""Minimum distance between two triangle meshes and their closest points: :func:`distance`.
+
+The two OBBTrees are descended best first. A priority queue holds pairs of tree codes (node or
+triangle, as in :mod:`.collide`) keyed by a lower bound on the distance of anything below
+them (:mod:`.box_distance`: separating-axis gaps, and the line through the box centres); the
+pair with the least bound is split (the larger node, or the node facing a triangle), its
+children's bounds are computed, and a triangle pair is measured exactly at once
+(:mod:`.triangle_distance`, after a cheap gap test), lowering the best distance found. Pairs
+whose bound is not below the best are never queued, and the search ends when the least queued
+bound reaches the best, or at once when two triangles intersect (distance 0). The child of
+least bound is split next without going through the queue while no queued pair is better,
+which halves the queue traffic on the way down. Among equal bounds the pair queued last is
+taken first, so overlapping boxes (bound 0) are searched depth first, as an overlap query
+would, and an intersection is found without sweeping every level.
+
+All geometry is evaluated in A's mesh frame (B's boxes and triangles carried over by
+``T_a^-1 T_b``); the closest points are mapped to the world at the end.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thesis_rbd._numba.jit import njit
+from thesis_rbd.collision.mesh.packed import (
+    box_frame,
+    carry_box,
+    child,
+    corner_moved,
+    half_extent,
+    layout,
+    node_size,
+    pair_corners,
+    tree_depth,
+)
+from thesis_rbd.collision.queries._query_args import (
+    as_pose,
+    as_pose_stack,
+    call_normalised,
+    inverse_pose,
+    pose_at,
+    pose_ok,
+    raise_bad_pose,
+    relative_pose,
+    sealed,
+    tree_array,
+)
+from thesis_rbd.collision.queries.box_distance import box_box_gap, triangle_box_gap
+from thesis_rbd.collision.queries.triangle_distance import triangle_distance, triangle_gap
+
+__all__ = ["DistanceResult", "distance", "mesh_distance"]
+
+
+class DistanceResult:
+    """Outcome of :func:`distance`.
+
+    Attributes
+    ----------
+    distance : float, or (k,) float64 for a pose stack
+        Least distance between the two meshes; 0.0 when they intersect (touching counts).
+    points : (2, 3) float64, or (k, 2, 3)
+        World points on A and on B that are ``distance`` apart (the same point, where the
+        meshes intersect, when the distance is 0).
+    faces : (2,) int64, or (k, 2)
+        [face of A, face of B] holding those points.
+    stats : dict
+        ``bv_tests`` (box-box and triangle-box bounds computed) and ``tri_tests``
+        (triangle pairs measured); summed over the stack.
+    """
+
+    # Slotted, with the arrays built only when read, so that a query whose caller wants the
+    # number alone costs no array allocation.
+    __slots__ = ("_faces", "_points", "_raw", "distance")
+
+    def __init__(self, distance, points, faces, raw):
+        self.distance = distance
+        self._points = points
+        self._faces = faces
+        self._raw = raw
+
+    @property
+    def points(self) -> np.ndarray:
+        if self._points is None:
+            r = self._raw
+            self._points = np.array([[r[2], r[3], r[4]], [r[5], r[6], r[7]]])
+        return self._points
+
+    @property
+    def faces(self) -> np.ndarray:
+        if self._faces is None:
+            self._faces = np.array([self._raw[8], self._raw[9]], dtype=np.int64)
+        return self._faces
+
+    @property
+    def stats(self) -> dict:
+        return {"bv_tests": int(self._raw[10]), "tri_tests": int(self._raw[11])}
+
+    def __repr__(self) -> str:
+        return f"DistanceResult(distance={self.distance})"
+
+
+# ---------------------------------------------------------------- the priority queue
+# A binary min-heap in one (capacity, 4) float64 array of rows (bound, order, x, y): least bound
+# first, and among equal bounds the larger order (the later push). The pushes and the pop are
+# written out in mesh_distance itself: helpers taking the array would cost reference counting
+# on every call.
+
+
+@njit(allocates=False)
+def _before(heap, i, j):
+    """Whether row i of the heap comes before row j."""
+    return heap[i, 0] < heap[j, 0] or (heap[i, 0] == heap[j, 0] and heap[i, 1] > heap[j, 1])
+
+
+@njit
+def _grown(heap):
+    """The heap with twice the room."""
+    bigger = np.empty((2 * heap.shape[0], 4))
+    bigger[: heap.shape[0]] = heap
+    return bigger
+
+
+# ---------------------------------------------------------------- bounds on code pairs
+
+
+@njit(allocates=False)
+def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
+    """Corners of triangle t of tree (P, L), mapped by ``x -> M x + tr`` into the mesh frame
+    of tree (Pk, Lk), then into the frame of its box k."""
+    c = Lk[0] + k
+    r = Lk[2] + 3 * k
+    # Box frame = R_k^T (x - c_k): fold it into the mapping.
+    Q = (
+        Pk[r, 0] * M[0] + Pk[r + 1, 0] * M[3] + Pk[r + 2, 0] * M[6],
+        Pk[r, 0] * M[1] + Pk[r + 1, 0] * M[4] + Pk[r + 2, 0] * M[7],
+        Pk[r, 0] * M[2] + Pk[r + 1, 0] * M[5] + Pk[r + 2, 0] * M[8],
+        Pk[r, 1] * M[0] + Pk[r + 1, 1] * M[3] + Pk[r + 2, 1] * M[6],
+        Pk[r, 1] * M[1] + Pk[r + 1, 1] * M[4] + Pk[r + 2, 1] * M[7],
+        Pk[r, 1] * M[2] + Pk[r + 1, 1] * M[5] + Pk[r + 2, 1] * M[8],
+        Pk[r, 2] * M[0] + Pk[r + 1, 2] * M[3] + Pk[r + 2, 2] * M[6],
+        Pk[r, 2] * M[1] + Pk[r + 1, 2] * M[4] + Pk[r + 2, 2] * M[7],
+        Pk[r, 2] * M[2] + Pk[r + 1, 2] * M[5] + Pk[r + 2, 2] * M[8],
+    )
+    w = (tr[0] - Pk[c, 0], tr[1] - Pk[c, 1], tr[2] - Pk[c, 2])
+    qt = (
+        Pk[r, 0] * w[0] + Pk[r + 1, 0] * w[1] + Pk[r + 2, 0] * w[2],
+        Pk[r, 1] * w[0] + Pk[r + 1, 1] * w[1] + Pk[r + 2, 1] * w[2],
+        Pk[r, 2] * w[0] + Pk[r + 1, 2] * w[1] + Pk[r + 2, 2] * w[2],
+    )
+    return (
+        corner_moved(P, L, t, 0, Q, qt),
+        corner_moved(P, L, t, 1, Q, qt),
+        corner_moved(P, L, t, 2, Q, qt),
+    )
+
+
+@njit(allocates=False)
+def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
+    """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
+    return triangle_gap(*pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab))
+
+
+@njit(allocates=False)
+def _children(P, L, x):
+    """The (one or two) child codes of node x: a classic tree's leaf has one, its triangle."""
+    c0 = child(P, L, x, 0)
+    c1 = child(P, L, x, 1)
+    if c0 == c1:
+        return c0, c0, 1
+    return c0, c1, 2
+
+
+@njit(separate=True)
+def mesh_distance(Pa, Pb, Mab, tab):
+    """Least distance between two packed trees, B placed in A's mesh frame by (Mab, tab).
+
+    Parameters
+    ----------
+    Pa, Pb : (rows, 3) float64
+        Packed trees (:mod:`..mesh.packed`).
+    Mab, tab : tuple of 9 float, tuple of 3 float
+        B's mesh frame in A's (row-major rotation and translation).
+
+    Returns
+    -------
+    distance, point_a, point_b, face_a, face_b, bound_tests, triangle_tests
+        Points are tuples in A's mesh frame.
+    """
+    La = layout(Pa)
+    Lb = layout(Pb)
+    Mba, tba = inverse_pose(Mab, tab)
+    best = math.inf
+    best_a = (0.0, 0.0, 0.0)
+    best_b = (0.0, 0.0, 0.0)
+    face_a = -1
+    face_b = -1
+    bound_tests = 0
+    triangle_tests = 0
+    # The children pairs of one split (one or two): (x0, y0), (x1, y1), and their bounds.
+    x0 = La[6]
+    y0 = Lb[6]
+    x1 = y1 = 0
+    n_pending = 1
+    if x0 < 0 and y0 < 0:
+        # Two single triangles: no tree to descend.
+        d, pa, pb = triangle_distance(*pair_corners(-x0 - 1, -y0 - 1, Pa, La, Pb, Lb, Mab, tab))
+        return d, pa, pb, -x0 - 1, -y0 - 1, 0, 1
+    heap = np.empty((8 * (tree_depth(Pa) + tree_depth(Pb)) + 16, 4))
+    size = 0
+    order = 0
+    # B's box last carried into A's frame (reused while the same B node meets A's children).
+    carried = -1
+    g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    c = (0.0, 0.0, 0.0)
+    # The search runs in the inner loop until it is done or its queue has no room for a
+    # split's two pushes; the queue then grows out here (numba reference-counts an array
+    # variable that a loop reassigns on every pass of that loop).
+    searching = True
+    while searching:
+        searching = False
+        while True:
+            if size + 2 > heap.shape[0]:
+                searching = True
+                break
+            # Measure the triangle pairs first (lowering the best distance), then bound the rest.
+            b0 = math.inf
+            b1 = math.inf
+            for k in range(n_pending):
+                x = x0 if k == 0 else x1
+                y = y0 if k == 0 else y1
+                if x >= 0 or y >= 0:
+                    continue
+                if best < math.inf and _gap(x, y, Pa, La, Pb, Lb, Mab, tab) >= best:
+                    continue
+                triangle_tests += 1
+                corners = pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab)
+                d, pa, pb = triangle_distance(*corners)
+                if d < best:
+                    best = d
+                    best_a = pa
+                    best_b = pb
+                    face_a = -x - 1
+                    face_b = -y - 1
+            if best == 0.0:
+                break
+            for k in range(n_pending):
+                x = x0 if k == 0 else x1
+                y = y0 if k == 0 else y1
+                if x < 0 and y < 0:
+                    continue
+                bound_tests += 1
+                if x >= 0 and y >= 0:
+                    if y != carried:
+                        g, c = carry_box(y, Pb, Lb, Mab, tab)
+                        carried = y
+                    R, T = box_frame(x, Pa, La, g, c)
+                    hx = half_extent(Pa, La, x)
+                    bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
+                elif x < 0:
+                    v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
+                else:
+                    v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
+                if k == 0:
+                    b0 = bound
+                else:
+                    b1 = bound
+            # Go on with the child of least bound while it is no worse than the queue's best
+            # (no queue traffic on the way down); queue the rest. (b1 is inf unless two children.)
+            nearest = 1 if b1 <= b0 else 0
+            least = min(b0, b1)
+            dive = least < best and (size == 0 or least <= heap[0, 0])
+            for k in range(n_pending):
+                bound = b0 if k == 0 else b1
+                if bound >= best or (dive and k == nearest):
+                    continue
+                order += 1
+                i = size
+                heap[i, 0] = bound
+                heap[i, 1] = order
+                heap[i, 2] = x0 if k == 0 else x1
+                heap[i, 3] = y0 if k == 0 else y1
+                size += 1
+                while i > 0 and _before(heap, i, (i - 1) // 2):
+                    parent = (i - 1) // 2
+                    for j in range(4):
+                        heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
+                    i = parent
+            if dive:
+                x = x0 if nearest == 0 else x1
+                y = y0 if nearest == 0 else y1
+            else:
+                if size == 0 or heap[0, 0] >= best:
+                    break
+                x = int(heap[0, 2])
+                y = int(heap[0, 3])
+                size -= 1
+                for j in range(4):
+                    heap[0, j] = heap[size, j]
+                i = 0
+                while True:
+                    first = i
+                    for child_row in (2 * i + 1, 2 * i + 2):
+                        if child_row < size and _before(heap, child_row, first):
+                            first = child_row
+                    if first == i:
+                        break
+                    for j in range(4):
+                        heap[i, j], heap[first, j] = heap[first, j], heap[i, j]
+                    i = first
+            # Split the larger node (a node facing a triangle is split).
+            split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
+            if split_b:
+                c0, c1, n_pending = _children(Pb, Lb, y)
+                x0 = x1 = x
+                y0 = c0
+                y1 = c1
+            else:
+                c0, c1, n_pending = _children(Pa, La, x)
+                x0 = c0
+                x1 = c1
+                y0 = y1 = y
+        if searching:
+            heap = _grown(heap)
+    return best, best_a, best_b, face_a, face_b, bound_tests, triangle_tests
+
+
+@njit
+def _to_world(T, p):
+    return (
+        T[0, 0] * p[0] + T[0, 1] * p[1] + T[0, 2] * p[2] + T[0, 3],
+        T[1, 0] * p[0] + T[1, 1] * p[1] + T[1, 2] * p[2] + T[1, 3],
+        T[2, 0] * p[0] + T[2, 1] * p[1] + T[2, 2] * p[2] + T[2, 3],
+    )
+
+
+@sealed
+@njit
+def _distance_kernel(P_a, T_a, P_b, T_b):
+    """One query: (status, d, point on A (3 floats), point on B (3), face A, face B, bound
+    tests, triangle tests); status 1 or 2: T_a or T_b is not a rigid transform."""
+    if not pose_ok(T_a):
+        return 1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1, -1, 0, 0
+    if not pose_ok(T_b):
+        return 2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1, -1, 0, 0
+    M, t = relative_pose(T_a, T_b)
+    d, pa, pb, fa, fb, nb, nt = mesh_distance(P_a, P_b, M, t)
+    xa = _to_world(T_a, pa)
+    xb = _to_world(T_a, pb)
+    return 0, d, xa[0], xa[1], xa[2], xb[0], xb[1], xb[2], fa, fb, nb, nt
+
+
+@sealed
+@njit
+def _distance_stack_kernel(P_a, T_a, P_b, T_b):
+    """Distances over pose stacks T_a (k_a, 4, 4) and T_b (k_b, 4, 4) checked by
+    :func:`pose_stacks`, a stack of one broadcast against the other.
+
+    Returns (distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle tests).
+    """
+    k = max(T_a.shape[0], T_b.shape[0])
+    distances = np.empty(k)
+    points = np.empty((k, 2, 3))
+    faces = np.empty((k, 2), dtype=np.int64)
+    bound_tests = 0
+    triangle_tests = 0
+    for i in range(k):
+        Ta = pose_at(T_a, i)
+        Tb = pose_at(T_b, i)
+        M, t = relative_pose(Ta, Tb)
+        d, pa, pb, fa, fb, nb, nt = mesh_distance(P_a, P_b, M, t)
+        distances[i] = d
+        xa = _to_world(Ta, pa)
+        xb = _to_world(Ta, pb)
+        for j in range(3):
+            points[i, 0, j] = xa[j]
+            points[i, 1, j] = xb[j]
+        faces[i, 0] = fa
+        faces[i, 1] = fb
+        bound_tests += nb
+        triangle_tests += nt
+    return distances, points, faces, bound_tests, triangle_tests
+
+
+def _is_stack(T) -> bool:
+    return np.ndim(T) == 3
+
+
+def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b"), checked=True):
+    """Packed trees and (k, 4, 4) pose stacks for a stack kernel, or ValueError.
+
+    A lone (4, 4) pose is a stack of one; two stacks must have the same length. ``names``
+    are the pose arguments' names for the messages; ``checked`` as :func:`.as_pose_stack`.
+    """
+    P_a = tree_array(tree_a, "tree_a")
+    P_b = tree_array(tree_b, "tree_b")
+    S_a = as_pose_stack(T_a, names[0], checked)
+    S_b = as_pose_stack(T_b, names[1], checked)
+    if len(S_a) != len(S_b) and len(S_a) != 1 and len(S_b) != 1:
+        raise ValueError(
+            f"{names[0]} and {names[1]} stacks must have the same length (or one pose), got "
+            f"{len(S_a)} and {len(S_b)}"
+        )
+    return P_a, S_a, P_b, S_b
+
+
+def stacked_distances(tree_a, T_a, tree_b, T_b):
+    """(distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle tests)."""
+    return call_normalised(_distance_stack_kernel, *pose_stacks(tree_a, T_a, tree_b, T_b))
+
+
+def distance(tree_a, T_a, tree_b, T_b) -> DistanceResult:
+    """Least distance between two triangle meshes, and the closest points and faces.
+
+    Parameters
+    ----------
+    tree_a, tree_b : OBBTree
+        The two meshes' trees.
+    T_a, T_b : (4, 4) or (k, 4, 4) array_like of float
+        Rigid transforms from each mesh frame to the world. Either may be a stack of k poses
+        (a single pose is then used with every pose of the other stack); the result's
+        fields then have a leading axis of length k.
+
+    Returns
+    -------
+    DistanceResult
+        ``distance`` is exact up to round-off (0.0 when the meshes intersect, exactly when
+        :func:`thesis_rbd.collide` reports them colliding), ``points`` (2, 3) are world
+        points on A and B that far apart, ``faces`` (2,) their faces.
+
+    Raises
+    ------
+    ValueError
+        If a tree is not an OBBTree, or a pose is not a finite rigid (4, 4) transform (or
+        two stacks differ in length).
+    """
+    try:
+        raw = _distance_kernel(tree_a._packed, T_a, tree_b._packed, T_b)
+    except (TypeError, AttributeError):
+        if _is_stack(T_a) or _is_stack(T_b):
+            distances, points, faces, nb, nt = stacked_distances(tree_a, T_a, tree_b, T_b)
+            return DistanceResult(distances, points, faces, (0,) * 10 + (nb, nt))
+        P_a = tree_array(tree_a, "tree_a")
+        P_b = tree_array(tree_b, "tree_b")
+        raw = call_normalised(_distance_kernel, P_a, as_pose(T_a, "T_a"), P_b, as_pose(T_b, "T_b"))
+    if raw[0]:
+        if raw[0] == 1:
+            raise_bad_pose(T_a, "T_a")
+        raise_bad_pose(T_b, "T_b")
+    return DistanceResult(raw[1], None, None, raw)

@@ -1,0 +1,227 @@
+"""Time of impact: bodies that ended their free flight inside something are stepped back.
+
+A body that flew freely through a step (the contact stage did not act on it) and ends it
+inside another body met it during the step. This stage finds when: each group of such bodies
+(joined by the contacts that hit them) retraces its ballistic path,
+
+    x(-t) = x - v t + a t^2 / 2,   v(-t) = v - a t,   q turned by -w t,
+
+exact for a constant force and torque-free spin over the step, and bisection on the yes/no
+intersection query finds the last moment before the present at which the group's pairs did
+not touch, to dt / 2^``HALVINGS``. The bodies are left there with their velocities of that
+moment, and the contacts of their pairs are found anew; what remains of the step is the
+impact stage's (``dynamics/impacts.py``). A group that already touched at the start of the
+step (a contact found then by the yes/no query but not by the contact generator, as at an
+exact touch) goes back to where it started: its whole step is the impact stage's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd._numba.jit import njit
+from thesis_rbd._sorting import unique_sorted
+from thesis_rbd._union_find import find_root, join
+from thesis_rbd.collision.contact_set import ContactSet
+from thesis_rbd.collision.convex.contacts import pair_key
+from thesis_rbd.collision.touching import pairs_touch
+from thesis_rbd.dynamics.ballistic import move_ballistic
+
+__all__ = [
+    "HALVINGS",
+    "bisect_to_contact",
+    "group_contacts",
+    "impact_groups",
+    "passed_through",
+    "step_back_to_impact",
+    "unique_pairs",
+]
+
+HALVINGS = 12
+
+
+@njit
+def impact_groups(body_count, body_a, body_b, hits, movers):
+    """Group the movers of the contacts ``hits`` (c,) bool that join them.
+
+    Returns ``group`` (n,) int64: the group of each mover in a hit contact, -1 elsewhere, and
+    the number of groups. Bodies that are not movers (static, resting, solved this step) are
+    obstacles: they join nothing.
+    """
+    parent = np.arange(body_count)
+    for k in range(body_a.shape[0]):
+        if hits[k] and movers[body_a[k]] and movers[body_b[k]]:
+            join(parent, body_a[k], body_b[k])
+    label = np.full(body_count, -1)
+    group = np.full(body_count, -1)
+    groups = 0
+    for k in range(body_a.shape[0]):
+        if not hits[k]:
+            continue
+        for i in (body_a[k], body_b[k]):
+            if movers[i]:
+                r = find_root(parent, i)
+                if label[r] < 0:
+                    label[r] = groups
+                    groups += 1
+                group[i] = label[r]
+    return group, groups
+
+
+@njit
+def unique_pairs(body_a, body_b, selected):
+    """(p, 2) int64: the distinct body pairs of the ``selected`` (c,) bool contacts, sorted by
+    (a, b) (as ``np.unique(..., axis=0)``, which costs tens of microseconds a call)."""
+    keys = np.empty(body_a.shape[0], np.int64)
+    m = 0
+    for k in range(body_a.shape[0]):
+        if selected[k]:
+            keys[m] = pair_key(body_a[k], body_b[k])
+            m += 1
+    distinct = unique_sorted(keys[:m])
+    pairs = np.empty((distinct.shape[0], 2), np.int64)
+    for r in range(distinct.shape[0]):
+        pairs[r, 0], pairs[r, 1] = distinct[r] >> 32, distinct[r] & 0xFFFFFFFF
+    return pairs
+
+
+@njit
+def group_contacts(group, g, body_a, body_b):
+    """Group g's bodies (m,) int64, its contacts (c,) bool (those with a body in the group)
+    and their distinct pairs (``unique_pairs``), from ``group`` (n,) of ``impact_groups``."""
+    members = np.flatnonzero(group == g)
+    mine = np.zeros(body_a.shape[0], np.bool_)
+    for k in range(body_a.shape[0]):
+        mine[k] = group[body_a[k]] == g or group[body_b[k]] == g
+    return members, mine, unique_pairs(body_a, body_b, mine)
+
+
+def passed_through(detector, contacts, receding, start_position, start_orientation):
+    """Which receding contacts (``impacts.find_hits``) a body ran into during the step.
+
+    A penetrating contact of a body in free flight that recedes along its normal is a hit
+    when its pair was apart at the start of the step: the body flew past the middle of the
+    other (a small body through a thin plate), so the least penetration points out of the
+    far side. Such contacts are rare, so each distinct pair is asked on its own.
+
+    Parameters
+    ----------
+    detector : CollisionPipeline
+        Answers ``intersects(pairs, position, orientation)``.
+    contacts : ContactSet
+        This step's contacts (c rows).
+    receding : (c,) bool
+    start_position : (n, 3) float64
+    start_orientation : (n, 4) float64
+        The bodies' poses at the start of the step (world frame).
+
+    Returns
+    -------
+    (c,) bool
+        The receding contacts whose pair did not touch at the start of the step.
+    """
+    pairs = np.stack([contacts["body_a"], contacts["body_b"]], axis=1)[receding]
+    distinct, which = np.unique(pairs, axis=0, return_inverse=True)
+    touched = [
+        detector.intersects(pair[None], start_position, start_orientation) for pair in distinct
+    ]
+    apart = ~np.array(touched, bool)
+    passed = np.zeros(len(receding), bool)
+    passed[receding] = apart[which.ravel()]
+    return passed
+
+
+def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt):
+    """Step each group of movers with a hit contact back to its time of impact.
+
+    Parameters
+    ----------
+    detector : CollisionPipeline
+        Gives ``touch_inputs()`` and answers ``contacts_of(pairs)``.
+    bodies : BodyArrays
+        Positions and orientations of stepped-back bodies are moved to their time of impact.
+    contacts : ContactSet
+        This step's contacts at the end of the step.
+    hits : (c,) bool
+        Contacts that a mover ran into during the step.
+    movers : (n,) bool
+        Bodies in free flight this step.
+    v, w : (n, 3) float64
+        Velocities at the end of the step; stepped-back bodies get those of their time of
+        impact.
+    acceleration : (n, 3) float64
+        Constant acceleration of each body over the step (external force / mass).
+    dt : float
+        The step: no body goes back further.
+
+    Returns
+    -------
+    rewind : (n,) float64
+        How far (s) each body went back; 0 for bodies left where they were.
+    contacts : ContactSet
+        The contact set with the stepped-back bodies' contacts found again where they are now.
+    """
+    n = bodies.count
+    rewind = np.zeros(n)
+    body_a, body_b = contacts["body_a"], contacts["body_b"]
+    group, groups = impact_groups(n, body_a, body_b, hits, movers)
+    position, orientation = bodies.full("position"), bodies.full("orientation")
+    renewed = np.zeros(len(body_a), bool)
+    for g in range(groups):
+        members, mine, pairs = group_contacts(group, g, body_a, body_b)
+        t = bisect_to_contact(
+            members, pairs, v, w, acceleration, position, orientation, dt,
+            bodies.full("center_of_mass_local"), detector.touch_inputs(),
+        )  # fmt: skip
+        if t > 0.0:
+            rewind[members] = t
+            renewed |= mine
+    if not renewed.any():
+        return rewind, contacts
+    fresh = detector.contacts_of(unique_pairs(body_a, body_b, renewed))
+    kept = ~renewed
+    return rewind, ContactSet.concatenate([contacts.select(kept), fresh])
+
+
+@njit
+def bisect_to_contact(
+    members, pairs, v, w, acceleration, position, orientation, dt, center_of_mass_local,
+    touch_inputs,
+):  # fmt: skip
+    """Leave ``members`` just inside first contact of ``pairs`` and return how far back that
+    is (s), in one call.
+
+    The group goes back along its ballistic path to the start of the step and, unless its
+    pairs touched already then (``dt`` is returned, the bodies left there), bisection on
+    ``touching.pairs_touch`` finds the last moment at which they touched, to
+    dt / 2^``HALVINGS``.
+
+    Parameters
+    ----------
+    members : (m,) int64
+        The group's bodies.
+    pairs : (p, 2) int64
+        The pairs whose contact is sought.
+    v, w, acceleration, position, orientation
+        As ``move_ballistic``; ``v`` and the poses are left at the time found.
+    dt : float
+        The step: no body goes back further.
+    center_of_mass_local : (n, 3) float64
+    touch_inputs : tuple
+        ``CollisionPipeline.touch_inputs()``.
+    """
+    at = dt
+    move_ballistic(members, -dt, v, w, acceleration, position, orientation)
+    if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
+        return dt
+    inside, outside = 0.0, dt
+    for _ in range(HALVINGS):
+        middle = 0.5 * (inside + outside)
+        move_ballistic(members, at - middle, v, w, acceleration, position, orientation)
+        at = middle
+        if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
+            inside = middle
+        else:
+            outside = middle
+    move_ballistic(members, at - inside, v, w, acceleration, position, orientation)
+    return inside
