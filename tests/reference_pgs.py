@@ -1,5 +1,6 @@
 """Slow reference for ``pgs.sweep_island``: projected Gauss-Seidel row by row, written from
-the contact Jacobians with NumPy, for the fast kernel to agree with."""
+the contact Jacobians with NumPy, for the fast kernel to agree with; and plain projected
+Gauss-Seidel on a dense LCP, an iterative solver for Lemke's answers to agree with."""
 
 import numpy as np
 
@@ -93,3 +94,20 @@ def reference_pgs(sweeps, sides, contacts, bias, friction, bodies, impulse):
             for d in (1, 2):
                 rows.apply(k, d, t[d - 1] - impulse[k, d])
             impulse[k, 1:] = t
+
+
+def dense_projected_gauss_seidel(M, q, z, iterations):
+    """Projected Gauss-Seidel sweeps on LCP(M, q), in place from the warm start ``z`` (n,):
+    row i solves ``(M z + q)_i = 0`` for ``z_i`` and clamps it at zero (rows with a zero
+    diagonal are skipped). Converges for a symmetric positive (semi-)definite ``M``.
+    Returns the largest change of any z_i in the last sweep."""
+    change = 0.0
+    for _ in range(iterations):
+        change = 0.0
+        for i in range(len(q)):
+            if M[i, i] <= 0.0:
+                continue
+            value = max(z[i] - (q[i] + M[i] @ z) / M[i, i], 0.0)
+            change = max(change, abs(value - z[i]))
+            z[i] = value
+    return change

@@ -8,7 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from numba import typeof
 from numba.core import types
 
 from thesis_rbd import scenes
@@ -17,6 +19,7 @@ from thesis_rbd._numba.compile_plan import (
     encode_type,
     load_plan,
 )
+from thesis_rbd.collision.convex.hull_data import HullFields
 
 ROOT = Path(__file__).resolve().parent.parent
 RECORDER = ROOT / "tools" / "record_compile_plan.py"
@@ -44,6 +47,11 @@ def test_argument_types_read_back_as_written():
         types.Omitted(200),
         types.boolean,
         types.none,
+        # the convex kernels' hull fields, by name: heterogeneous, and all alike
+        typeof(
+            HullFields(*[np.zeros((2, 3)) if k % 2 else np.zeros(2, np.int64) for k in range(20)])
+        ),
+        typeof(HullFields(*[np.zeros(2) for _ in range(20)])),
     ]
     assert [decode_type(json.loads(json.dumps(encode_type(t)))) for t in spelled] == spelled
 

@@ -20,6 +20,7 @@ from thesis_rbd.collision.convex.coherence import certify_face_axis
 from thesis_rbd.collision.convex.contacts import _TIE, cache_views
 from thesis_rbd.collision.convex.hull_data import unpack_hulls
 from thesis_rbd.collision.convex.sat import FACE_A, FACE_B
+from validation.convex_oracle import hull_planes
 
 
 def relative_frame(pair):
@@ -30,15 +31,46 @@ def relative_frame(pair):
     return Ra.T @ Rb, Ra.T @ (pair.position[1] - pair.position[0]), Ra
 
 
+def tie_of(pair):
+    """The tie the convex kernel passes the certificate for this pair."""
+    H = unpack_hulls(pair.hulls.arrays())
+    ha, hb = pair.hull_of_body
+    return _TIE * (H.sizes[ha] + H.sizes[hb])
+
+
 def certify(pair, kind, face, start=0):
     H = unpack_hulls(pair.hulls.arrays())
     R, t, Ra = relative_frame(pair)
     ha, hb = pair.hull_of_body
-    tie = _TIE * (H[16][ha] + H[16][hb])
     certified, separation, *axis, _ = certify_face_axis(
-        H, ha, hb, np.ascontiguousarray(R), t, kind, face, start, tie, np.empty((3, 3)), np.empty(3)
-    )
+        H, ha, hb, np.ascontiguousarray(R), t, kind, face, start, tie_of(pair),
+        np.empty((3, 3)), np.empty(3),
+    )  # fmt: skip
     return certified, separation, Ra @ np.array(axis)
+
+
+def face_a_condition(pair, face):
+    """The certificate's condition for face ``face`` of A, by brute force in the world frame
+    (module docstring of ``coherence``): B's vertex deepest under the face lies deeper than
+    the tie, and deeper than its depth plus the tie under every other face plane of A's hull
+    (qhull's planes, not the package's faces). None where round-off could decide it: a
+    margin within 1e-9 of the size, or equally deep vertices that disagree."""
+    Ra = Rotation.from_quat(pair.orientation[0]).as_matrix()
+    plane = pair.hulls.hulls[0].planes[face]
+    n = Ra @ plane[:3]
+    d = plane[3] + n @ pair.position[0]
+    depths = d - pair.points_b @ n
+    deepest = depths.max()
+    eps, tie = 1e-9 * pair.size, tie_of(pair)
+    normals, offsets = hull_planes(pair.points_a)
+    others = normals @ n < 1.0 - 1e-9  # qhull's triangles of the offered face are that face
+    answers = set()
+    for b in pair.points_b[depths >= deepest - eps]:
+        margins = np.append(offsets[others] - normals[others] @ b - (deepest + tie), deepest - tie)
+        if np.abs(margins).min() <= eps:
+            return None
+        answers.add(bool(margins.min() > 0.0))
+    return answers.pop() if len(answers) == 1 else None
 
 
 def check_certified_answers(pair, kind, face, start=0):
@@ -62,14 +94,28 @@ def check_certified_answers(pair, kind, face, start=0):
     st.one_of(pairs(depths=(1e-6, 1e-3, 0.05, 0.3)), face_pairs()),
     st.sampled_from([FACE_A, FACE_B]),
     st.integers(0, 10**6),
+    st.booleans(),
 )
-def test_any_face_it_accepts_is_the_exact_axis(pair, kind, pick):
-    """Whatever face is offered (most are wrong), and from whatever vertex the climb to the
-    other hull's deepest starts, an accepted face is the right answer."""
+def test_any_face_it_accepts_is_the_exact_axis(pair, kind, pick, offer_the_answer):
+    """Whatever face is offered (most are wrong, or the one facing the oracle's normal), and
+    from whatever vertex the climb to the other hull's deepest starts, an accepted face is the
+    right answer; and a face of A is accepted exactly when its condition holds by brute force
+    (so a certificate that accepted nothing would fail here)."""
     own, other = (0, 1) if kind == FACE_A else (1, 0)
-    faces = pair.hulls.hulls[own].planes.shape[0]
+    planes = pair.hulls.hulls[own].planes
+    faces = planes.shape[0]
     vertices = len(pair.hulls.hulls[other].vertices)
-    check_certified_answers(pair, kind, pick % faces, (pick // faces) % vertices)
+    face, start = pick % faces, (pick // faces) % vertices
+    if offer_the_answer:
+        _, normal, _, _, _ = least_penetration(pair.points_a, pair.points_b)
+        R = Rotation.from_quat(pair.orientation[own]).as_matrix()
+        # A's answering face faces B (along -normal), B's faces A
+        face = int(np.argmax(planes[:, :3] @ R.T @ (-normal if own == 0 else normal)))
+    accepted = check_certified_answers(pair, kind, face, start)
+    if kind == FACE_A:
+        expected = face_a_condition(pair, face)
+        if expected is not None:
+            assert accepted == expected
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

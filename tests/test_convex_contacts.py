@@ -20,6 +20,7 @@ from tests.reference_convex import (
     least_penetration,
     polygon_area,
 )
+from thesis_rbd._pair_keys import pair_key
 from thesis_rbd.collision.convex.contacts import (
     _TIE,
     SPECULATIVE_FRACTION,
@@ -27,12 +28,18 @@ from thesis_rbd.collision.convex.contacts import (
     cache_views,
     convex_contacts,
     empty_cache,
-    pack_cache,
-    pair_key,
     query_scratch_for,
 )
 from thesis_rbd.collision.convex.hull_data import HullSet
 from thesis_rbd.collision.convex.sat import EDGES
+
+
+def pack_cache(keys, features, axes) -> tuple:
+    """A coherence cache from its fields: keys (k,) int64 sorted, features (k, 3) int64 and
+    axes (k, 3) float64, laid out as ``convex_contacts_for_pairs`` reads it."""
+    keys = np.asarray(keys, np.int64)
+    ints = np.concatenate([keys, np.asarray(features, np.int64).reshape(-1)])
+    return ints, np.asarray(axes, np.float64).reshape(-1).copy(), 0, 0, len(keys)
 
 
 def random_hull_mesh(seed, count):

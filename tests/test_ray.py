@@ -78,8 +78,12 @@ def test_rays_match_trimesh(kind, seed, leafless, dtype):
         directions / np.linalg.norm(directions, axis=1, keepdims=True)
     )
     np.testing.assert_allclose(hits.points[hits.hit], expected_points[hits.hit], atol=tolerance)
-    # Faces agree except where a ray meets an edge two faces share (same point either way).
-    assert np.mean(hits.faces[hits.hit] == face[hits.hit]) > 0.9 if hits.hit.any() else True
+    # Faces may differ only where a ray meets an edge or corner that faces share: the point
+    # then lies on trimesh's face as well as on ours.
+    T = np.asarray(T)
+    for point, theirs in zip(hits.points[hits.hit], face[hits.hit], strict=True):
+        triangle = mesh.triangles[theirs] @ T[:3, :3].T + T[:3, 3]
+        assert point_triangle_distance(point, triangle) <= tolerance
     _check_hits_lie_on_their_faces(hits, mesh, T, tolerance)
 
 

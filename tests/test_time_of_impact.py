@@ -13,8 +13,8 @@ from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
 from thesis_rbd.collision.touching import pairs_touch
-from thesis_rbd.dynamics.ballistic import move_ballistic
 from thesis_rbd.world.time_of_impact import HALVINGS, bisect_to_contact, group_contacts
+from validation.fcl_adapter import fcl_collide, fcl_model, fcl_object
 
 DT = 1.0 / 240.0
 SHAPES = {
@@ -30,30 +30,16 @@ def scaled(mesh, size):
     return rbd.TriangleMesh(mesh.vertices * size, mesh.faces)
 
 
-def python_bisection(detector, bodies, members, pairs, v, w, acceleration, dt):
-    """The reference search: back to the start of the step, then HALVINGS bisections on
-    ``detector.intersects``, each move and each query a call of its own."""
-    position, orientation = bodies.full("position"), bodies.full("orientation")
-    at = 0.0
-
-    def move_to(t):
-        nonlocal at
-        move_ballistic(members, at - t, v, w, acceleration, position, orientation)
-        at = t
-
-    move_to(dt)
-    if detector.intersects(pairs):
-        return dt
-    inside, outside = 0.0, dt
-    for _ in range(HALVINGS):
-        middle = 0.5 * (inside + outside)
-        move_to(middle)
-        if detector.intersects(pairs):
-            inside = middle
-        else:
-            outside = middle
-    move_to(inside)
-    return inside
+def pose_back(T0, x0, v, w, acceleration, s):
+    """Mesh-to-world transform of a body whose transform is ``T0`` and centre of mass ``x0``
+    at the end of the step, moved back by s along its ballistic path: written out with
+    scipy's rotations, apart from the kernel's quaternion steps."""
+    com_local = T0[:3, :3].T @ (x0 - T0[:3, 3])
+    x = x0 - v * s + 0.5 * acceleration * s * s
+    R = (Rotation.from_rotvec(-w * s) * Rotation.from_matrix(T0[:3, :3])).as_matrix()
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, x - R @ com_local
+    return T
 
 
 def falling_pair(shape, size, speed, spin, tilt, depth):
@@ -89,33 +75,38 @@ def falling_pair(shape, size, speed, spin, tilt, depth):
     tilt=st.tuples(*[st.floats(-1.0, 1.0)] * 3),
     depth=st.floats(1e-4, 0.05),
 )
-def test_the_kernel_bisection_is_the_python_bisection(shape, size, speed, spin, tilt, depth):
+def test_the_kernel_finds_the_moment_of_first_contact(shape, size, speed, spin, tilt, depth):
+    """python-fcl, an independent intersection test, says the bodies touch where the
+    search leaves them and were apart one resolution step further back (or touched already
+    at the start of the step, when it went back all the way); the body's pose and velocity
+    are those of its ballistic path at that time, written out apart from the kernel."""
     speed *= size  # sizes per second: the body moves by a comparable part of itself
     world, body, v, w, acceleration = falling_pair(
         shape, size, speed, np.array(spin), np.array(tilt), depth
     )
     detector, bodies = world._collision, world.bodies
-    members = np.array([body])
-    pairs = np.array([[0, body]])
-    position, orientation = bodies.full("position"), bodies.full("orientation")
-    start = position.copy(), orientation.copy()
+    floor = fcl_object(fcl_model(world.bodies.meshes[0]), world.transform(0))
+    model = fcl_model(world.bodies.meshes[body])
+    T0, x0 = world.transform(body), world.position(body)
 
-    v_python = v.copy()
-    t_python = python_bisection(detector, bodies, members, pairs, v_python, w, acceleration, DT)
-    after_python = position.copy(), orientation.copy()
+    def touch(s):
+        pose = pose_back(T0, x0, v[body], w[body], acceleration[body], s)
+        return fcl_collide(floor, fcl_object(model, pose), max_contacts=1)[0]
 
-    position[:], orientation[:] = start
     v_kernel = v.copy()
-    t_kernel = bisect_to_contact(
-        members, pairs, v_kernel, w, acceleration, position, orientation, DT,
+    t = bisect_to_contact(
+        np.array([body]), np.array([[0, body]]), v_kernel, w, acceleration,
+        bodies.full("position"), bodies.full("orientation"), DT,
         bodies.full("center_of_mass_local"), detector.touch_inputs(),
     )  # fmt: skip
 
-    assert t_kernel == t_python
-    np.testing.assert_array_equal(position, after_python[0])
-    np.testing.assert_array_equal(orientation, after_python[1])
-    np.testing.assert_array_equal(v_kernel, v_python)
-    assert 0.0 < t_kernel <= DT  # every pair starts inside the floor: some step back
+    assert 0.0 < t <= DT  # every body ends inside the floor: some step back
+    assert touch(t)
+    if t < DT:
+        assert not touch(t + DT / 2**HALVINGS)
+    expected = pose_back(T0, x0, v[body], w[body], acceleration[body], t)
+    np.testing.assert_allclose(world.transform(body), expected, rtol=0, atol=1e-12 * size)
+    np.testing.assert_allclose(v_kernel[body], v[body] - acceleration[body] * t, rtol=1e-12)
 
 
 def test_pairs_touch_asks_convex_and_mesh_pairs_alike():

@@ -66,6 +66,12 @@ def encode_type(numba_type) -> str | dict:
             "layout": numba_type.layout,
             "readonly": not numba_type.mutable,
         }
+    if isinstance(numba_type, types.BaseNamedTuple):
+        cls = numba_type.instance_class
+        return {
+            "namedtuple": f"{cls.__module__}:{cls.__qualname__}",
+            "fields": [encode_type(member) for member in numba_type.types],
+        }
     if isinstance(numba_type, types.UniTuple):
         return {"unituple": encode_type(numba_type.dtype), "count": numba_type.count}
     if isinstance(numba_type, types.Tuple):
@@ -95,6 +101,10 @@ def decode_type(spelled: str | dict):
             spelled["layout"],
             readonly=spelled["readonly"],
         )
+    elif "namedtuple" in spelled:
+        module, qualname = spelled["namedtuple"].split(":")
+        cls = getattr(importlib.import_module(module), qualname)
+        return types.BaseTuple.from_types([decode_type(f) for f in spelled["fields"]], cls)
     elif "unituple" in spelled:
         return types.UniTuple(decode_type(spelled["unituple"]), spelled["count"])
     elif "tuple" in spelled:

@@ -29,8 +29,6 @@ them as on the others.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
@@ -45,9 +43,11 @@ from thesis_rbd.dynamics.contact_kinematics import (
     write_momenta,
 )
 from thesis_rbd.dynamics.contact_solver import contact_basis
+from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 
 __all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
@@ -139,7 +139,7 @@ def resolve_impacts(
     Returns
     -------
     stats : (6,) int64
-        ``resting_contact.STATS``.
+        ``contact_stats.STATS``.
     resolved : (c,) bool
         The contacts of the resolved islands.
     """
@@ -150,7 +150,7 @@ def resolve_impacts(
     n = count
     c = contact_count
     stats = np.zeros(6, np.int64)
-    stats[5] = -1
+    stats[BAD_BODY] = -1
     body_island, order, island_start = find_islands(n, body_a, body_b, static)
     islands = island_start.shape[0] - 1
     island_time = np.zeros(islands)
@@ -171,7 +171,7 @@ def resolve_impacts(
     resolved = keep.copy()
     if kept == 0:
         return stats, resolved
-    stats[0] = len(starts) - 1
+    stats[ISLANDS] = len(starts) - 1
     sel = np.empty(kept, np.int64)
     m = 0
     for isl in range(islands):
@@ -221,11 +221,11 @@ def resolve_impacts(
             du += sub_normals[k, i] * dt * (acceleration[a, i] - acceleration[b, i])
         threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
         if u < -threshold:
-            bounce[k] = restitution[a] * restitution[b]
+            bounce[k] = combined_restitution(restitution, a, b)
         # a contact not touching yet (beyond round-off: within the slop) takes no part in the
         # collision
         bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
-        mu[k] = math.sqrt(friction[a] * friction[b])
+        mu[k] = combined_friction(friction, a, b)
     for isl in range(sub_start.shape[0] - 1):
         s, e = sub_start[isl], sub_start[isl + 1]
         rebound = False
@@ -286,7 +286,7 @@ def resolve_impacts(
             for a in range(3):
                 v[i, a] = v1[i, a]
                 w[i, a] = w1[i, a]
-    stats[5] = write_momenta(
+    stats[BAD_BODY] = write_momenta(
         np.flatnonzero(touched), orientation, inertia_body, inverse_mass, v, w,
         linear_momentum, angular_momentum,
     )  # fmt: skip

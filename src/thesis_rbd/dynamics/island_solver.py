@@ -29,6 +29,7 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import relative_velocity
 from thesis_rbd.dynamics.contact_solver import solve_exact
+from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
 from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
@@ -104,7 +105,7 @@ def solve_islands(
     impulse : (c, 3) float64
         Warm start in, answer out, in each contact's (n, t1, t2) frame.
     stats : (6,) int64
-        ``resting_contact.STATS`` counters, updated.
+        ``contact_stats.STATS`` counters, updated.
     """
     angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     solver = int(settings[cs.SOLVER])
@@ -135,13 +136,13 @@ def solve_islands(
                     angular_b, response_a, response_b, normal_step, tangent_step, coupling,
                     inverse_mass, bias, friction, v, w, impulse,
                 )  # fmt: skip
-            stats[1] += sweeps
-            stats[2] = max(stats[2], sweeps)
+            stats[SWEEPS] += sweeps
+            stats[MAX_SWEEPS] = max(stats[MAX_SWEEPS], sweeps)
             if not converged:
                 if solver == 0 and e - s <= exact_limit:
                     exact = True
                 else:
-                    stats[4] += 1
+                    stats[UNCONVERGED] += 1
         if exact:
             velocity_scale = 0.0
             for k in range(s, e):  # back to the velocities before this island's impulses
@@ -167,8 +168,8 @@ def solve_islands(
             for idx in range(taking_part.shape[0]):
                 for d in range(3):
                     impulse[taking_part[idx], d] = answer[idx, d]
-            stats[3] += 1
-            stats[4] += status != 0
+            stats[EXACT_ISLANDS] += 1
+            stats[UNCONVERGED] += status != 0
 
     for k in range(body_a.shape[0]):
         extra = bounce[k] * impulse[k, 0]

@@ -1,22 +1,19 @@
-"""Linear complementarity problems: Lemke's exact pivoting method and projected Gauss-Seidel.
+"""Linear complementarity problems: Lemke's exact pivoting method.
 
 An LCP(M, q) asks for z such that
 
     w = M z + q,   z >= 0,   w >= 0,   z . w = 0.
 
 Contact with restitution, resting contact and friction become one such problem per island of
-touching bodies (thesis 7.2, and its further work). Two solvers, selectable so the reports can
-show what the exact answer costs:
+touching bodies (thesis 7.2, and its further work). The contact stage solves it iteratively
+(projected Gauss-Seidel on contact rows, ``pgs``) or exactly, selectably so the reports can show
+what the exact answer costs; this module is the exact solver:
 
 * ``lemke`` -- complementary pivoting on a dense tableau (Lemke 1965, as in Cottle, Pang and
   Stone, "The Linear Complementarity Problem", 4.4). It returns an exact solution (to round-off)
   whenever Lemke's method terminates on a secondary ray-free path, which Anitescu and Potra
   (1997) proved for the velocity-level contact LCP with a polyhedral friction cone used here.
-* ``projected_gauss_seidel`` -- the iterative sweep of most game engines: each row solved
-  for its own variable, clamped at zero; converges for symmetric positive (semi-)definite M.
-  (The friction-aware block version lives in ``contact_solver``.)
-
-Both are numba kernels on dense float64 arrays; an island's LCP is small (tens of rows).
+A numba kernel on dense float64 arrays; an island's LCP is small (tens of rows).
 """
 
 from __future__ import annotations
@@ -25,7 +22,7 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 
-__all__ = ["LCP_STATUS", "lemke", "projected_gauss_seidel"]
+__all__ = ["LCP_STATUS", "lemke"]
 
 # Outcomes of ``lemke``; anything but SOLVED leaves z at the last basis' values.
 LCP_STATUS = {0: "solved", 1: "secondary ray (no solution found)", 2: "iteration limit"}
@@ -169,42 +166,3 @@ def lemke(M, q, max_pivots=0, pivot_tolerance=1e-7):
         if n <= b < 2 * n:
             z[b - n] = max(T[i, width], 0.0)
     return z, status, pivots
-
-
-@njit
-def projected_gauss_seidel(M, q, z, iterations):
-    """Projected Gauss-Seidel sweeps on LCP(M, q), in place from the warm start ``z``.
-
-    Row i solves ``(M z + q)_i = 0`` for ``z_i`` and clamps it at zero.
-
-    Parameters
-    ----------
-    M : (n, n) float64
-        Symmetric positive semi-definite with a positive diagonal (rows with a zero diagonal
-        are skipped).
-    q : (n,) float64
-    z : (n,) float64
-        Warm start; overwritten with the result.
-    iterations : int
-        Number of full sweeps.
-
-    Returns
-    -------
-    change : float
-        Largest change of any z_i in the last sweep (a convergence measure).
-    """
-    n = q.shape[0]
-    change = 0.0
-    for _ in range(iterations):
-        change = 0.0
-        for i in range(n):
-            diagonal = M[i, i]
-            if diagonal <= 0.0:
-                continue
-            r = q[i]
-            for j in range(n):
-                r += M[i, j] * z[j]
-            value = max(z[i] - r / diagonal, 0.0)
-            change = max(change, abs(value - z[i]))
-            z[i] = value
-    return change

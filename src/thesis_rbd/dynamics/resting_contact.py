@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd._pair_keys import pair_keys
 from thesis_rbd._sorting import stable_argsort
 from thesis_rbd.collision.contact_set import contact_views
 from thesis_rbd.dynamics import contact_settings as cs
@@ -49,17 +50,16 @@ from thesis_rbd.dynamics.contact_kinematics import (
     write_momenta,
 )
 from thesis_rbd.dynamics.contact_solver import contact_basis
+from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, SWEEPS
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import correct_positions, island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands, order_from_the_top
+from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
-from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses, pair_keys
+from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses
 from thesis_rbd.spatial.quaternion import to_matrix_into
 
-__all__ = ["STATS", "solve_contacts"]
-
-# Entries of the statistics array the contact kernels return.
-STATS = ("islands", "sweeps", "max_sweeps", "exact_islands", "unconverged", "bad_body")
+__all__ = ["solve_contacts"]
 
 
 @njit(separate=True)
@@ -104,8 +104,8 @@ def solve_contacts(
     solved : (>= n,) bool
         Out: True for the bodies an impulse acted on (they move with v+); others untouched.
     stats : (6,) int64
-        Out: see ``STATS``; ``bad_body`` is the first body whose new state is not finite (-1
-        if none).
+        Out: the counters of ``contact_stats.STATS``; ``stats[BAD_BODY]`` is the first body
+        whose new state is not finite (-1 if none).
     """
     dt = settings[cs.DT]
     rate = settings[cs.BIAS_RATE]
@@ -115,7 +115,7 @@ def solve_contacts(
     )
     n = count
     stats[:] = 0
-    stats[5] = -1
+    stats[BAD_BODY] = -1
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
 
     # velocities before (v0) and after (v*) the step's forces
@@ -144,7 +144,7 @@ def solve_contacts(
     # islands; contacts re-ordered so that each island is one slice
     _, order, island_start = find_islands(n, body_a, body_b, static)
     order = order_from_the_top(n, body_a, body_b, static, order, island_start)
-    stats[0] = island_start.shape[0] - 1
+    stats[ISLANDS] = island_start.shape[0] - 1
     sa = body_a[order]
     sb = body_b[order]
     arm_a, arm_b = contact_arms(points, position, order, sa, sb)
@@ -177,7 +177,7 @@ def solve_contacts(
             # acts on as over any step), then e times that impulse pushes it back: the
             # forces' own impulse must not bounce, or their work would be added to the
             # rebound
-            bounce[k] = restitution[a] * restitution[b]
+            bounce[k] = combined_restitution(restitution, a, b)
             bias[k] = u_before - u_forced
         elif depth <= slop[k] or at_rest:
             bias[k] = 0.0
@@ -185,11 +185,11 @@ def solve_contacts(
             bias[k] = -rate * (depth - slop[k]) / dt
         if depth > slop[k] and at_rest:
             push[k] = rate * (depth - slop[k]) / dt
-        mu[k] = math.sqrt(friction[a] * friction[b])
+        mu[k] = combined_friction(friction, a, b)
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
 
     # warm start from the previous step's matching contacts
-    keys = pair_keys(sa, sb, n)
+    keys = pair_keys(sa, sb)
     sorted_features = features[order]
     local = np.empty((c, 3))
     radius = np.empty(c)
@@ -216,7 +216,7 @@ def solve_contacts(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
         relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
     )  # fmt: skip
-    stats[1] += correct_positions(
+    stats[SWEEPS] += correct_positions(
         settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
         orientation,
     )  # fmt: skip
@@ -228,15 +228,15 @@ def solve_contacts(
             hit[sa[k]] = not static[sa[k]]
             hit[sb[k]] = not static[sb[k]]
     moved = np.flatnonzero(hit)
-    stats[5] = write_momenta(
+    stats[BAD_BODY] = write_momenta(
         moved, orientation, inertia_body, inverse_mass, v, w, linear_momentum, angular_momentum
     )
     for i in moved:
         solved[i] = True
-        if stats[5] < 0 and not math.isfinite(
+        if stats[BAD_BODY] < 0 and not math.isfinite(
             position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
         ):
-            stats[5] = i
+            stats[BAD_BODY] = i
 
     # impulses back in the caller's order; the world vectors are the next warm start
     world_impulse = np.empty((c, 3))

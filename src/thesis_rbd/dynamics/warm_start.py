@@ -17,7 +17,7 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 
-__all__ = ["MATCH_FRACTION", "WarmStart", "find_warm_impulses", "pair_keys"]
+__all__ = ["MATCH_FRACTION", "WarmStart", "find_warm_impulses"]
 
 MATCH_FRACTION = 0.1
 
@@ -28,8 +28,8 @@ class WarmStart:
     Attributes
     ----------
     keys : (m, 2) int64
-        Pair key a * (n + 1) + b of each remembered contact (sorted), and its feature id
-        (-1: none).
+        Pair key (``_pair_keys.pair_key(a, b)``) of each remembered contact (sorted), and its
+        feature id (-1: none).
     values : (m, 6) float64
         The contact point in body a's frame (about its centre of mass), and the world-frame
         impulse vector the contact applied to body a.
@@ -41,15 +41,6 @@ class WarmStart:
     def clear(self) -> None:
         self.keys = np.zeros((0, 2), np.int64)
         self.values = np.zeros((0, 6))
-
-
-@njit
-def pair_keys(body_a, body_b, body_count):
-    """(c,) int64 key a * (n + 1) + b of each contact's ordered body pair."""
-    keys = np.empty(body_a.shape[0], np.int64)
-    for k in range(body_a.shape[0]):
-        keys[k] = body_a[k] * (body_count + 1) + body_b[k]
-    return keys
 
 
 @njit

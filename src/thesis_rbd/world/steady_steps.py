@@ -36,6 +36,7 @@ from thesis_rbd.collision.convex.contacts import (
     convex_contacts_for_pairs,
 )
 from thesis_rbd.dynamics.bodies import copy_state
+from thesis_rbd.dynamics.contact_stats import BAD_BODY
 from thesis_rbd.dynamics.impacts import any_free_body
 from thesis_rbd.dynamics.integrators import integrate_bodies
 from thesis_rbd.dynamics.resting_contact import solve_contacts
@@ -156,8 +157,8 @@ def run_steady_steps(
             warm_keys, warm_values = keys, values
             acted = (contact_ints, contact_floats, contact_count, impulses)
             start = _count_stage(CONTACTS, start, cycles, calls)
-            if stats[5] >= 0:
-                stop, bad = CONTACTS, stats[5]
+            if stats[BAD_BODY] >= 0:
+                stop, bad = CONTACTS, stats[BAD_BODY]
                 break
         bad = integrate_bodies(
             method, dt, count, frozen, solved, position, orientation, linear_momentum,

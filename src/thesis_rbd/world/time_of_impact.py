@@ -20,10 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd._pair_keys import first_of, pair_key, second_of
 from thesis_rbd._sorting import unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contact_set import ContactSet
-from thesis_rbd.collision.convex.contacts import pair_key
 from thesis_rbd.collision.touching import pairs_touch
 from thesis_rbd.dynamics.ballistic import move_ballistic
 
@@ -81,7 +81,7 @@ def unique_pairs(body_a, body_b, selected):
     distinct = unique_sorted(keys[:m])
     pairs = np.empty((distinct.shape[0], 2), np.int64)
     for r in range(distinct.shape[0]):
-        pairs[r, 0], pairs[r, 1] = distinct[r] >> 32, distinct[r] & 0xFFFFFFFF
+        pairs[r, 0], pairs[r, 1] = first_of(distinct[r]), second_of(distinct[r])
     return pairs
 
 

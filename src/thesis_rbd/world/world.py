@@ -49,6 +49,7 @@ from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
 from thesis_rbd.dynamics.contact_settings import ContactSettings
+from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, STATS
 from thesis_rbd.dynamics.forces import (
     AppliedForces,
     DragCoefficients,
@@ -58,7 +59,7 @@ from thesis_rbd.dynamics.forces import (
 from thesis_rbd.dynamics.impacts import any_free_body, find_hits, resolve_impacts
 from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
 from thesis_rbd.dynamics.pgs import friction_polygon
-from thesis_rbd.dynamics.resting_contact import STATS, solve_contacts
+from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.dynamics.warm_start import WarmStart
 from thesis_rbd.world.readout import WorldReadout
@@ -503,8 +504,8 @@ class World(WorldSteadySteps, WorldReadout):
             stats,
         )  # fmt: skip
         warm.keys, warm.values = keys, values
-        if stats[5] >= 0:
-            raise _StepFailed(int(stats[5]))
+        if stats[BAD_BODY] >= 0:
+            raise _StepFailed(int(stats[BAD_BODY]))
         self._acted = (c, impulses)
         self._impact_count = 0
 
@@ -608,15 +609,15 @@ class World(WorldSteadySteps, WorldReadout):
             c.floats, c.count, *self._state, *self._constants, self._external_force,
             self._drag_array, pf.start, pf.arm, pf.force, impulses,
         )  # fmt: skip
-        if stats[5] >= 0:
-            raise _StepFailed(int(stats[5]))
+        if stats[BAD_BODY] >= 0:
+            raise _StepFailed(int(stats[BAD_BODY]))
         self._rewind[:] = 0.0
         acted, acted_impulses = self._acted
         self._acted = (
             ContactSet.concatenate([acted, c.select(resolved)]),
             np.concatenate([acted_impulses, impulses[resolved]]),
         )
-        self._impact_count = int(stats[0])
+        self._impact_count = int(stats[ISLANDS])
 
     def _sleep_due(self) -> bool:
         return self._awake and self._sleep.update_due(self._slowest, self._has_contacts())
@@ -640,7 +641,7 @@ class World(WorldSteadySteps, WorldReadout):
         ``max_sweeps`` (of one island), ``exact_islands`` solved by Lemke's method,
         ``unconverged`` islands (PGS at its sweep limit, or an exact solve that fell back),
         and ``impacts``, islands resolved at their time of impact in the last step."""
-        info = dict(zip(STATS[:5], self._contact_stats[:5].tolist(), strict=True))
+        info = dict(zip(STATS[:BAD_BODY], self._contact_stats[:BAD_BODY].tolist(), strict=True))
         info["impacts"] = self._impact_count
         return info
 

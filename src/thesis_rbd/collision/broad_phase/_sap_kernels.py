@@ -43,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd._pair_keys import unordered_pair_key
 from thesis_rbd._sorting import sorted_copy
 from thesis_rbd.collision.broad_phase._sap_columns import rebin_axis
 from thesis_rbd.collision.broad_phase._sap_grid import cell_of
@@ -50,7 +51,6 @@ from thesis_rbd.collision.broad_phase.pair_table import (
     IN_SET,
     TOUCHED,
     WAS_IN,
-    pair_key,
     table_delete,
     table_find,
     table_insert,
@@ -272,7 +272,7 @@ def _sort_axis(val, ep, col, box_b, box_c, cells_b, cells_c, gc, a, p, m, log_ke
                         if nlog == capacity:
                             full = True
                             break
-                        log_keys[nlog] = pair_key(i, j)
+                        log_keys[nlog] = unordered_pair_key(i, j)
                         log_start[nlog] = 1 - is_end
                         nlog += 1
             va[q + 1] = vq
@@ -646,7 +646,7 @@ def sweep_all_pairs(box, ep, axis):
                     grown = np.empty(2 * k, dtype=np.int64)
                     grown[:k] = out[:k]
                     out = grown
-                out[k] = pair_key(order[s], order[t])
+                out[k] = unordered_pair_key(order[s], order[t])
                 k += 1
     return sorted_copy(out[:k])
 

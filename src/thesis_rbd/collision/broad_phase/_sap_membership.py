@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd._pair_keys import first_of, pair_key, second_of, unordered_pair_key
 from thesis_rbd._sorting import sorted_copy
 from thesis_rbd.collision.broad_phase._sap_columns import merge_records, new_records
-from thesis_rbd.collision.broad_phase.pair_table import pair_key
 
 __all__ = ["compact_removed", "merge_new_boxes", "pairs_with_new"]
 
@@ -40,7 +40,7 @@ def pairs_with_new(box, first_new):
                     grown = np.empty(2 * k, dtype=np.int64)
                     grown[:k] = out[:k]
                     out = grown
-                out[k] = pair_key(j, i)
+                out[k] = unordered_pair_key(j, i)
                 k += 1
     return sorted_copy(out[:k])
 
@@ -131,12 +131,12 @@ def compact_removed(val, ep, col, count, rng, pair_keys, gone):
     nr = 0
     for t in range(pair_keys.shape[0]):
         key = pair_keys[t]
-        i = new_id[key >> 32]
-        j = new_id[key & 0xFFFFFFFF]
+        i = new_id[first_of(key)]
+        j = new_id[second_of(key)]
         if i < 0 or j < 0:
             removed[nr] = key
             nr += 1
         else:
-            kept[nk] = (i << 32) | j
+            kept[nk] = pair_key(i, j)
             nk += 1
     return out_rng, kept[:nk], removed[:nr]

@@ -6,8 +6,9 @@ array would cost O(k) per insertion; a Python set cannot be touched from numba. 
 a linear-probing hash table over two flat arrays:
 
 ``keys : (capacity,) int64``
-    ``pair_key(i, j) = i << 32 | j`` with ``i < j``, or ``EMPTY`` (-1) for a free slot. The key
-    order is the lexicographic order of (i, j), so sorting keys sorts pairs.
+    ``unordered_pair_key(i, j)`` (``_pair_keys``: ``i << 32 | j`` with ``i < j``), or ``EMPTY``
+    (-1) for a free slot. The key order is the lexicographic order of (i, j), so sorting keys
+    sorts pairs.
 ``flags : (capacity,) uint8``
     ``IN_SET`` (overlapping now), ``WAS_IN`` (overlapping when the frame began) and ``TOUCHED``
     (changed this frame), so a frame's net events can be read off without a second set.
@@ -29,9 +30,7 @@ __all__ = [
     "IN_SET",
     "TOUCHED",
     "WAS_IN",
-    "keys_to_pairs",
     "new_table",
-    "pair_key",
     "table_delete",
     "table_find",
     "table_from_keys",
@@ -42,16 +41,6 @@ EMPTY = -1
 IN_SET = 1
 WAS_IN = 2
 TOUCHED = 4
-
-_LOW32 = (1 << 32) - 1
-
-
-@njit
-def pair_key(i, j):
-    """Key of the unordered pair {i, j} (ids below 2**31): ``min << 32 | max``."""
-    if i < j:
-        return (np.int64(i) << 32) | np.int64(j)
-    return (np.int64(j) << 32) | np.int64(i)
 
 
 @njit
@@ -182,11 +171,3 @@ def table_from_keys(pair_keys):
         flags[slot] = IN_SET
     meta[0] = pair_keys.shape[0]
     return keys, flags, meta
-
-
-def keys_to_pairs(keys: np.ndarray) -> np.ndarray:
-    """(k,) int64 pair keys -> (k, 2) int64 rows ``[i, j]`` in the same order."""
-    out = np.empty((keys.shape[0], 2), dtype=np.int64)
-    out[:, 0] = keys >> 32
-    out[:, 1] = keys & _LOW32
-    return out

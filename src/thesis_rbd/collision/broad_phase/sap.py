@@ -23,11 +23,12 @@ import math
 
 import numpy as np
 
+from thesis_rbd._pair_keys import keys_to_pairs
 from thesis_rbd.collision.broad_phase import _sap_kernels as kernels
 from thesis_rbd.collision.broad_phase import _sap_membership as membership
 from thesis_rbd.collision.broad_phase._sap_columns import build_axes
 from thesis_rbd.collision.broad_phase._sap_grid import choose_grid, compute_cells, single_cell_grid
-from thesis_rbd.collision.broad_phase.pair_table import keys_to_pairs, new_table, table_from_keys
+from thesis_rbd.collision.broad_phase.pair_table import new_table, table_from_keys
 
 __all__ = ["SweepAndPrune"]
 

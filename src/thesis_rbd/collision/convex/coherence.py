@@ -39,7 +39,7 @@ def _deepest_under(H, row, h_other, M, c, start):
     hull; the other hull is mapped into its frame by x -> M x + c), climbing from its vertex
     ``start``: (depth, x, y, z, vertex), the point in the reference frame, the vertex's
     index in its hull."""
-    planes = H[8]
+    planes = H.planes
     nx, ny, nz = planes[row, 0], planes[row, 1], planes[row, 2]
     x, y, z, local = mapped_support(H, h_other, M, c, -nx, -ny, -nz, start)
     return planes[row, 3] - (nx * x + ny * y + nz * z), x, y, z, local
@@ -49,7 +49,7 @@ def _deepest_under(H, row, h_other, M, c, start):
 def _deep_under_other_faces(H, h_ref, face, x, y, z, depth):
     """Whether the point (x, y, z) (hull ``h_ref``'s frame) lies deeper than ``depth``
     under every face of ``h_ref`` but ``face``."""
-    face_start, planes = H[7], H[8]
+    face_start, planes = H.face_start, H.planes
     f0 = face_start[h_ref]
     for row in range(f0, face_start[h_ref + 1]):
         if row - f0 == face:
@@ -92,7 +92,7 @@ def certify_face_axis(H, ha, hb, R, t, kind, face, start, tie, M, c):
         The other hull's vertex deepest under the face (B's for FACE_A, A's for FACE_B),
         its index in that hull; -1 when not certified.
     """
-    face_start, planes = H[7], H[8]
+    face_start, planes = H.face_start, H.planes
     if kind == FACE_A:
         if face < 0 or face >= face_start[ha + 1] - face_start[ha]:
             return False, 0.0, 0.0, 0.0, 0.0, -1

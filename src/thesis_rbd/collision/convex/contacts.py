@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd._pair_keys import pair_key
 from thesis_rbd._sorting import stable_argsort
 from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH, ContactSet, contact_views
 from thesis_rbd.collision.convex.box import box_box_query, box_face_contacts
@@ -72,7 +73,6 @@ __all__ = [
     "convex_contacts_for_pairs",
     "empty_cache",
     "feature_id",
-    "pair_key",
     "query_scratch_for",
 ]
 
@@ -117,14 +117,6 @@ def empty_cache() -> tuple:
     return np.zeros(0, np.int64), np.zeros(0), 0, 0, 0
 
 
-def pack_cache(keys, features, axes) -> tuple:
-    """A coherence cache from its fields: keys (k,) int64 sorted, features (k, 3) int64 and
-    axes (k, 3) float64 (see ``convex_contacts_for_pairs``)."""
-    keys = np.asarray(keys, np.int64)
-    ints = np.concatenate([keys, np.asarray(features, np.int64).reshape(-1)])
-    return ints, np.asarray(axes, np.float64).reshape(-1).copy(), 0, 0, len(keys)
-
-
 def cache_views(cache: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A coherence cache's (keys (k,), features (k, 3), axes (k, 3)), for inspection."""
     return _cache_fields(*cache)
@@ -139,12 +131,6 @@ def _cache_fields(ints, floats, int_offset, float_offset, count):
         ints[int_offset + count : int_offset + 4 * count].reshape((count, 3)),
         floats[float_offset : float_offset + 3 * count].reshape((count, 3)),
     )
-
-
-@njit
-def pair_key(i, j):
-    """Cache key of body pair (i, j)."""
-    return (np.int64(i) << 32) | np.int64(j)
 
 
 @njit(allocates=False)
@@ -172,7 +158,7 @@ def _relative_frame(Ra, ta, Rb, tb, R, t):
 def _incident_face(H, h, mx, my, mz, start_vertex):
     """Face of hull h whose outward normal is most nearly along (mx, my, mz) (hull frame):
     a scan over all faces of a small hull, the faces around the support vertex otherwise."""
-    face_start, planes = H[7], H[8]
+    face_start, planes = H.face_start, H.planes
     f0, f1 = face_start[h], face_start[h + 1]
     best, best_face = -np.inf, 0
     if f1 - f0 <= _SCAN_FACES:
@@ -181,8 +167,13 @@ def _incident_face(H, h, mx, my, mz, start_vertex):
             if s > best:
                 best, best_face = s, f - f0
         return best_face
-    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
-    vertex_face_start, vertex_faces = H[5], H[6]
+    vertex_start, vertices, neighbor_start, neighbors = (
+        H.vertex_start,
+        H.vertices,
+        H.neighbor_start,
+        H.neighbors,
+    )
+    vertex_face_start, vertex_faces = H.vertex_face_start, H.vertex_faces
     v0 = vertex_start[h]
     v = support_vertex(
         vertices[v0 : vertex_start[h + 1]], neighbor_start[v0 : vertex_start[h + 1] + 1],
@@ -211,7 +202,13 @@ def _deepest_vertex(H, h, kind, R, t, nx, ny, nz, start_vertex, out):
 @njit(allocates=False)
 def _gather_loop(H, h, face, R, t, out):
     """Face ``face`` of hull h's corners mapped by x -> R x + t into ``out``; their count."""
-    vertex_start, vertices, face_start, loop_start, loops = H[0], H[1], H[7], H[9], H[10]
+    vertex_start, vertices, face_start, loop_start, loops = (
+        H.vertex_start,
+        H.vertices,
+        H.face_start,
+        H.loop_start,
+        H.loops,
+    )
     v0 = vertex_start[h]
     f = face_start[h] + face
     count = loop_start[f + 1] - loop_start[f]
@@ -241,7 +238,7 @@ def _face_manifold(
     are kept (``four_corners``); corners less deep than the deepest by at most ``flat`` are
     as deep for that choice.
     """
-    planes, face_start = H[8], H[7]
+    planes, face_start = H.planes, H.face_start
     if kind == FACE_A:
         inc_hull = hb
         f = face_start[ha] + reference_face
@@ -439,7 +436,12 @@ def convex_contacts_for_pairs(
         float offset 7 c).
     """
     H = unpack_hulls(hull_arrays)
-    sizes, thicknesses, box_frames, box_features = H[16], H[17], H[18], H[19]
+    sizes, thicknesses, box_frames, box_features = (
+        H.sizes,
+        H.thicknesses,
+        H.box_frames,
+        H.box_features,
+    )
     cache_keys, cache_features, cache_axes = _cache_fields(
         cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
     )
@@ -626,7 +628,7 @@ def _face_beside_edges(H, ha, hb, edge_a, edge_b, R, ux, uy, uz):
     """(kind, face) of the face beside edge_a of A or edge_b of B whose outward normal is
     within ``_FLAT_EDGE_ANGLE`` of the edge axis u (A towards B; B's faces face -u); kind 0
     if none is."""
-    planes, face_start, edge_start, edge_faces = H[8], H[7], H[11], H[13]
+    planes, face_start, edge_start, edge_faces = H.planes, H.face_start, H.edge_start, H.edge_faces
     best, kind, face = math.cos(_FLAT_EDGE_ANGLE), 0, 0
     for k in range(2):
         f = edge_faces[edge_start[ha] + edge_a, k]
@@ -649,7 +651,7 @@ def _face_beside_edges(H, ha, hb, edge_a, edge_b, R, ux, uy, uz):
 def _edge_contact(H, ha, hb, edge_a, edge_b, R, t, Ri, ti, out_points, c):
     """The one contact of an edge pair, world frame, into ``out_points[c]``; returns the
     squared distance between the two edges' closest points."""
-    vertex_start, vertices, edge_start, edges = H[0], H[1], H[11], H[12]
+    vertex_start, vertices, edge_start, edges = H.vertex_start, H.vertices, H.edge_start, H.edges
     a0 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 0]
     a1 = vertex_start[ha] + edges[edge_start[ha] + edge_a, 1]
     b0 = vertex_start[hb] + edges[edge_start[hb] + edge_b, 0]

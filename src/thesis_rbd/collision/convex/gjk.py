@@ -73,7 +73,12 @@ def mapped_support(H, h, M, c, dx, dy, dz, start):
     mapped into by x -> M x + c, climbing from its vertex ``start`` (any index outside the
     hull starts at its first vertex): (x, y, z, vertex), the point in that frame and the
     vertex's index in its hull."""
-    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    vertex_start, vertices, neighbor_start, neighbors = (
+        H.vertex_start,
+        H.vertices,
+        H.neighbor_start,
+        H.neighbors,
+    )
     # the support along d in the mapped frame is the support along M^T d in the hull's own
     ex = M[0, 0] * dx + M[1, 0] * dy + M[2, 0] * dz
     ey = M[0, 1] * dx + M[1, 1] * dy + M[2, 1] * dz
@@ -94,7 +99,12 @@ def mapped_support(H, h, M, c, dx, dy, dz, start):
 def _support(H, ha, hb, R, t, dx, dy, dz, start_a, start_b, out, row, index_a, index_b):
     """Support point of M = A - B along d (A's frame) into ``out[row]``; its vertex indices
     into ``index_a[row]``, ``index_b[row]``."""
-    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    vertex_start, vertices, neighbor_start, neighbors = (
+        H.vertex_start,
+        H.vertices,
+        H.neighbor_start,
+        H.neighbors,
+    )
     a0, a1 = vertex_start[ha], vertex_start[ha + 1]
     b0, b1 = vertex_start[hb], vertex_start[hb + 1]
     ia = support_vertex(vertices[a0:a1], neighbor_start[a0 : a1 + 1], neighbors,
@@ -406,7 +416,12 @@ def _epa(H, ha, hb, R, t, P, ia, ib, scratch, tolerance):
 @njit
 def _support_b_along(H, hb, R, t, dx, dy, dz, start):
     """B's support point along d (A's frame), in A's frame: (x, y, z, vertex)."""
-    vertex_start, vertices, neighbor_start, neighbors = H[0], H[1], H[2], H[3]
+    vertex_start, vertices, neighbor_start, neighbors = (
+        H.vertex_start,
+        H.vertices,
+        H.neighbor_start,
+        H.neighbors,
+    )
     b0, b1 = vertex_start[hb], vertex_start[hb + 1]
     ex = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz
     ey = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
@@ -594,7 +609,7 @@ def gjk_epa_query(H, ha, hb, R, t, ax, ay, az, tie, margin, scratch):
         As ``sat_query``; a separating direction found by GJK has kind ``CACHE_AXIS`` and a
         lower bound of the separation above ``margin``.
     """
-    centroids, sizes = H[15], H[16]
+    centroids, sizes = H.centroids, H.sizes
     va, vb, faces, planes = scratch[1], scratch[2], scratch[3], scratch[4]
     rows, P, ia, ib = scratch[7], scratch[8], scratch[9], scratch[10]
     if ax * ax + ay * ay + az * az > 0.0:

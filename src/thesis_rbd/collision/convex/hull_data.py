@@ -20,6 +20,7 @@ offsets, like ``GeometrySet`` does for trees.
 
 from __future__ import annotations
 
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,7 @@ from thesis_rbd.geometry.width import hull_thickness
 __all__ = [
     "CONVEXITY_TOLERANCE",
     "ConvexHull",
+    "HullFields",
     "HullSet",
     "convex_hull",
     "is_convex",
@@ -396,6 +398,9 @@ _FIELDS = (
     "edge_start", "edges", "edge_faces", "edge_arcs", "centroids", "sizes", "thicknesses",
     "box_frames", "box_features",
 )  # fmt: skip
+# The fields of a hull set as the convex kernels read them, by name (``H.planes``): a numba
+# named tuple of views into the packed arrays, so naming a field costs nothing at run time.
+HullFields = namedtuple("HullFields", _FIELDS)
 # Header of the packed ints: per field, its offset into its own array (ints or floats) and
 # up to three dimensions
 _HEADER = 4 * len(_FIELDS)
@@ -451,10 +456,10 @@ def _float_blocks(ints, floats, k):
 
 @njit
 def unpack_hulls(packed):
-    """The fields of a packed hull set (``HullSet.arrays()``), as views, in ``_FIELDS``
-    order: the tuple the convex kernels index (``H[0]`` is ``vertex_start``, ...)."""
+    """The fields of a packed hull set (``HullSet.arrays()``), as views: the ``HullFields``
+    the convex kernels read (``H.vertex_start``, ``H.planes``, ...)."""
     ints, floats = packed
-    return (
+    return HullFields(
         _int_field(ints, 0), _float_rows(ints, floats, 1), _int_field(ints, 2),
         _int_field(ints, 3), _int_field(ints, 4), _int_field(ints, 5), _int_field(ints, 6),
         _int_field(ints, 7), _float_rows(ints, floats, 8), _int_field(ints, 9),
