@@ -27,7 +27,7 @@ def tight_boxes(world, members=None, fast=None, speculative=0.0, reach=0.0):
     tight = np.full((2, n, 3), np.nan)
     tight_bounds(
         members, c.box_offset, c.box_half, b.size, b.position, b.orientation,
-        world._start_position, fast, b.thickness, speculative, reach, tight,
+        world._state.start_position, fast, b.thickness, speculative, reach, tight,
     )  # fmt: skip
     return tight
 
@@ -38,7 +38,7 @@ def fit_fat_boxes(world, frozen, everything=True):
     n = len(world)
     fat, fast = np.zeros((2, n, 3)), np.zeros(n, bool)
     result = update_fat_bounds(
-        n, everything, frozen, b.size, b.thickness, b.position, world._start_position,
+        n, everything, frozen, b.size, b.thickness, b.position, world._state.start_position,
         b.linear_momentum, b.inverse_mass, PREDICTION_STEPS * world.dt, fat, fast,
     )  # fmt: skip
     return (*result, fat, fast)
@@ -176,10 +176,11 @@ def test_fat_boxes_lose_no_candidate_pair():
     checked = 0
     for _ in range(120):
         world.step()
-        tight = tight_boxes(world, fast=world._fast)
+        tight = tight_boxes(world, fast=world._state.fast)
         expected = brute_force_pairs(tight[0], tight[1])
         expected = expected[~(world.bodies.static[expected].all(axis=1))]
-        np.testing.assert_array_equal(world._candidates, expected)
+        candidates = world._collision.candidates(world._state.candidate_count)
+        np.testing.assert_array_equal(candidates, expected)
         checked += len(expected)
     assert checked > 0
     assert len(updates) < 60  # the fat boxes spared most sweep-and-prune updates

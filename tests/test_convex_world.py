@@ -39,7 +39,7 @@ def test_auto_sends_convex_pairs_to_the_convex_kernel_and_the_rest_to_the_tree()
     assert (contacts["features"][torus] == -1).all()
     assert pipeline.stats["convex_pairs"] == 1
     # the convex pair's coherence cache holds that pair, keyed (0, 1)
-    assert cache_views(pipeline.convex_cache)[0].tolist() == [1]
+    assert cache_views(world._state.convex_cache)[0].tolist() == [1]
 
 
 def test_mesh_sends_every_pair_to_the_tree():

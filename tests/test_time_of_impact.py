@@ -97,7 +97,7 @@ def test_the_kernel_finds_the_moment_of_first_contact(shape, size, speed, spin, 
     t = bisect_to_contact(
         np.array([body]), np.array([[0, body]]), v_kernel, w, acceleration,
         bodies.full("position"), bodies.full("orientation"), DT,
-        bodies.full("center_of_mass_local"), detector.touch_inputs(),
+        bodies.full("center_of_mass_local"), detector.touch_inputs(world._state.convex_cache),
     )  # fmt: skip
 
     assert 0.0 < t <= DT  # every body ends inside the floor: some step back
@@ -122,7 +122,8 @@ def test_pairs_touch_asks_convex_and_mesh_pairs_alike():
 
     def touching():
         orientation, centre = bodies.full("orientation"), bodies.full("center_of_mass_local")
-        return pairs_touch(pairs, position, orientation, centre, *detector.touch_inputs())
+        inputs = detector.touch_inputs(world._state.convex_cache)
+        return pairs_touch(pairs, position, orientation, centre, *inputs)
 
     assert touching()  # both rest on the floor
     position[1, 2] = 0.6  # the cube lifted: the torus (a mesh pair) still touches

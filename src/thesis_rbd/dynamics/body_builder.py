@@ -20,6 +20,21 @@ from thesis_rbd.spatial.quaternion import quat_to_matrix
 __all__ = ["body_fields"]
 
 
+def _check_mass_properties(m, inv_m, inertia, inv_inertia, name: str) -> None:
+    """Refuse a body whose mass or inertia, or their inverses, are not finite and positive
+    (a mass of 1e-320 has an infinite inverse): no step could move it."""
+    finite = (
+        0.0 < m < math.inf and 0.0 < inv_m < math.inf
+        and bool(np.all(np.isfinite(inertia))) and bool(np.all(np.isfinite(inv_inertia)))
+    )  # fmt: skip
+    if not finite:
+        raise ValueError(
+            f"{name} gives this body mass properties that over- or underflow (mass {m!r}, "
+            f"inverse mass {inv_m!r}, inertia diagonal {np.diag(inertia).tolist()}): "
+            "choose a value that makes them finite and positive"
+        )
+
+
 def body_fields(
     mesh,
     mass=None,
@@ -70,10 +85,18 @@ def body_fields(
         else:
             props = mass_properties(mesh, density=1.0 if density is None else density)
         center, m, inertia = props.center_of_mass, props.mass, props.inertia
-        inv_m, inv_inertia = 1.0 / m, np.linalg.inv(inertia)
-        R = quat_to_matrix(q)
-        P = m * v
-        L = R @ inertia @ R.T @ w
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            inv_m, inv_inertia = 1.0 / m, np.linalg.inv(inertia)
+            R = quat_to_matrix(q)
+            P = m * v
+            L = R @ inertia @ R.T @ w
+        _check_mass_properties(m, inv_m, inertia, inv_inertia, "mass" if mass else "density")
+        for name, value in (("linear_velocity", P), ("angular_velocity", L)):
+            if not np.all(np.isfinite(value)):
+                raise ValueError(
+                    f"{name} gives this body a momentum that overflows ({value.tolist()}): "
+                    "choose a smaller one"
+                )
     radius = float(np.linalg.norm(mesh.vertices - center, axis=1).max())
     return dict(
         position=position,

@@ -94,9 +94,9 @@ def solve_contacts(
     external_force, drag, pf_start, pf_arm, pf_force
         The step's forces, as the integrator takes them.
     old_keys, old_values
-        The previous step's contacts (``WarmStart``).
+        The previous step's contacts (``warm_start``'s keys and values).
     new_keys, new_values : (c, 2) int64, (c, 6) float64
-        Out: the next step's ``WarmStart`` arrays. (Results are written into arrays the
+        Out: the next step's warm start. (Results are written into arrays the
         caller passes, not returned: each array a kernel returns costs about a microsecond
         of boxing, much of a small scene's budget.)
     impulse : (c, 3) float64

@@ -127,6 +127,20 @@ class SleepState:
     def any_asleep(self) -> bool:
         return bool(self.asleep.any())
 
+    @property
+    def still_any(self) -> bool:
+        """Whether an awake body may have a nonzero still-time (False only when none has)."""
+        return self._still_any
+
+    def snapshot(self) -> tuple:
+        """A copy of the bookkeeping, for ``restore`` to put back."""
+        return (self.asleep.copy(), self.still.copy(), self.island.copy(), self._next_label,
+                self._still_any)  # fmt: skip
+
+    def restore(self, snapshot: tuple) -> None:
+        """Put back the bookkeeping of a ``snapshot``."""
+        self.asleep, self.still, self.island, self._next_label, self._still_any = snapshot
+
     def update_due(self, slowest_speed2: float, touching: bool) -> bool:
         """Whether ``update`` could change anything this step.
 

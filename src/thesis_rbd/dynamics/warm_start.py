@@ -7,7 +7,10 @@ same pair within ``MATCH_FRACTION`` of the smaller body's thickness, measured in
 Impulses are kept as world vectors and read back in the new contact frame, whose tangents may
 have turned.
 
-The remembered contacts are plain arrays sorted by pair key (``WarmStart``), passed to the
+The remembered contacts are two plain arrays sorted by pair key, ``keys`` (m, 2) int64 (the
+pair key ``_pair_keys.pair_key(a, b)`` and the feature id, -1: none) and ``values`` (m, 6)
+float64 (the contact point in body a's frame about its centre of mass, and the world-frame
+impulse vector it applied to body a), kept in the world's step state and passed to the
 contact kernel, which writes their successors into new arrays the caller passes.
 """
 
@@ -17,30 +20,9 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 
-__all__ = ["MATCH_FRACTION", "WarmStart", "find_warm_impulses"]
+__all__ = ["MATCH_FRACTION", "find_warm_impulses"]
 
 MATCH_FRACTION = 0.1
-
-
-class WarmStart:
-    """The previous step's contacts and impulses, sorted by pair key.
-
-    Attributes
-    ----------
-    keys : (m, 2) int64
-        Pair key (``_pair_keys.pair_key(a, b)``) of each remembered contact (sorted), and its
-        feature id (-1: none).
-    values : (m, 6) float64
-        The contact point in body a's frame (about its centre of mass), and the world-frame
-        impulse vector the contact applied to body a.
-    """
-
-    def __init__(self):
-        self.clear()
-
-    def clear(self) -> None:
-        self.keys = np.zeros((0, 2), np.int64)
-        self.values = np.zeros((0, 6))
 
 
 @njit
@@ -55,7 +37,7 @@ def find_warm_impulses(keys, features, local_points, radius, old_keys, old_value
     radius : (c,) float64
         How far a predecessor without a matching feature id may lie.
     old_keys, old_values
-        ``WarmStart`` arrays (keys sorted by pair).
+        The remembered contacts (keys sorted by pair; see the module docstring).
     """
     c = keys.shape[0]
     m = old_keys.shape[0]

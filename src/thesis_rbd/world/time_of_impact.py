@@ -96,7 +96,7 @@ def group_contacts(group, g, body_a, body_b):
     return members, mine, unique_pairs(body_a, body_b, mine)
 
 
-def passed_through(detector, contacts, receding, start_position, start_orientation):
+def passed_through(detector, contacts, receding, start_position, start_orientation, cache):
     """Which receding contacts (``impacts.find_hits``) a body ran into during the step.
 
     A penetrating contact of a body in free flight that recedes along its normal is a hit
@@ -107,13 +107,15 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
     Parameters
     ----------
     detector : CollisionPipeline
-        Answers ``intersects(pairs, position, orientation)``.
+        Answers ``intersects(pairs, position, orientation, cache)``.
     contacts : ContactSet
         This step's contacts (c rows).
     receding : (c,) bool
     start_position : (n, 3) float64
     start_orientation : (n, 4) float64
         The bodies' poses at the start of the step (world frame).
+    cache : tuple
+        The convex coherence cache (``convex.contacts``).
 
     Returns
     -------
@@ -123,7 +125,8 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
     pairs = np.stack([contacts["body_a"], contacts["body_b"]], axis=1)[receding]
     distinct, which = np.unique(pairs, axis=0, return_inverse=True)
     touched = [
-        detector.intersects(pair[None], start_position, start_orientation) for pair in distinct
+        detector.intersects(pair[None], start_position, start_orientation, cache)
+        for pair in distinct
     ]
     apart = ~np.array(touched, bool)
     passed = np.zeros(len(receding), bool)
@@ -131,13 +134,14 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
     return passed
 
 
-def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt):
+def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt, cache):
     """Step each group of movers with a hit contact back to its time of impact.
 
     Parameters
     ----------
     detector : CollisionPipeline
-        Gives ``touch_inputs()`` and answers ``contacts_of(pairs)``.
+        Gives ``touch_inputs(cache)`` and answers ``contacts(pairs, position, orientation,
+        cache)``.
     bodies : BodyArrays
         Positions and orientations of stepped-back bodies are moved to their time of impact.
     contacts : ContactSet
@@ -153,6 +157,8 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
         Constant acceleration of each body over the step (external force / mass).
     dt : float
         The step: no body goes back further.
+    cache : tuple
+        The convex coherence cache (``convex.contacts``).
 
     Returns
     -------
@@ -171,14 +177,16 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
         members, mine, pairs = group_contacts(group, g, body_a, body_b)
         t = bisect_to_contact(
             members, pairs, v, w, acceleration, position, orientation, dt,
-            bodies.full("center_of_mass_local"), detector.touch_inputs(),
+            bodies.full("center_of_mass_local"), detector.touch_inputs(cache),
         )  # fmt: skip
         if t > 0.0:
             rewind[members] = t
             renewed |= mine
     if not renewed.any():
         return rewind, contacts
-    fresh = detector.contacts_of(unique_pairs(body_a, body_b, renewed))
+    fresh, _ = detector.contacts(
+        unique_pairs(body_a, body_b, renewed), position, orientation, cache
+    )
     kept = ~renewed
     return rewind, ContactSet.concatenate([contacts.select(kept), fresh])
 
@@ -208,7 +216,7 @@ def bisect_to_contact(
         The step: no body goes back further.
     center_of_mass_local : (n, 3) float64
     touch_inputs : tuple
-        ``CollisionPipeline.touch_inputs()``.
+        ``CollisionPipeline.touch_inputs(cache)``.
     """
     at = dt
     move_ballistic(members, -dt, v, w, acceleration, position, orientation)

@@ -1,7 +1,7 @@
 """The world: bodies, the force model, and a step that reads as its list of stages.
 
 A step runs only the stages the scene calls for (``World.stages``), each timed into
-``World.profile``, and the stages hand each other explicit arrays:
+``World.profile``, and the stages hand each other one explicit value (``StepState``):
 
     forces -> contacts -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling
            -> time_of_impact -> impacts -> sleep
@@ -13,26 +13,20 @@ detection then finds the contacts of the new positions, which are the next step'
 ``time_of_impact`` steps bodies that flew into something back to the moment they touched, and
 ``impacts`` resolves those collisions and carries the bodies to the end of the step.
 
-The plan is derived from the scene and refreshed whenever bodies or forces change: no gravity
-or applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
-collision stages; no contact response wanted (a detection-only scene), no contact stages.
-Stages are also skipped step by step when they have nothing to do (a skipped stage is not
-called and costs nothing): the contact stage without contacts, the narrow phase without
-candidate pairs, the tunnelling check when no body moved further than its own thickness, the
-impact stages when no body hit anything, everything but the forces when all bodies sleep; so
-are the broad phase while no body left its fat box (``collision/broad_phase/bounds.py``) and
-the sleep stage while it would change nothing.
-
-While every body is convex and awake and gravity is the only force, each stage is one known
-kernel, and ``steady_steps.run_steady_steps`` runs the stages of many steps in one call: it
-stops at the first stage that needs Python (a sweep-and-prune update, the tunnelling check, a
-time of impact, the sleep stage), and the step goes on from there stage by stage. Its steps are
-the staged steps to the bit, and ``World.profile`` gets each stage's share of its time.
+The order of the stages, the guard that skips each when it has nothing to do and the save at
+the start of a step are written once, in the step kernel (``step_kernel.run_steps``): it runs
+step after step in one call and stops at a stage whose work is Python's (an applied force to
+gather, a sweep-and-prune update, mesh pairs, the tunnelling sweep, a time of impact, the
+impacts, the sleep stage). The world runs that stage (``_STAGES_IN_PYTHON``) and calls the
+kernel again from the next one. A scene pays only for the stages it calls for: no gravity or
+applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
+collision stages; no contact response wanted (a detection-only scene), no contact stages; and
+what a scene lacks is compiled out of the kernel.
 
 A step whose state turns non-finite (a huge force, a diverging solve) raises
 ``NonFiniteStateError`` naming the body, the stage and the step, and leaves the world as it
-was before that step; the kernels report the first bad body as they write, so a good step pays
-only for one copy of the state.
+was before that step: the kernel saves the body state at the start of every step, and the
+step state is a value, so the one the step began with is put back.
 """
 
 from __future__ import annotations
@@ -56,24 +50,34 @@ from thesis_rbd.dynamics.forces import (
     PointForces,
     world_arm_to_body,
 )
-from thesis_rbd.dynamics.impacts import any_free_body, find_hits, resolve_impacts
-from thesis_rbd.dynamics.integrators import INTEGRATORS, integrate_bodies
+from thesis_rbd.dynamics.impacts import find_hits, resolve_impacts
+from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.dynamics.pgs import friction_polygon
-from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
-from thesis_rbd.dynamics.warm_start import WarmStart
 from thesis_rbd.world.readout import WorldReadout
 from thesis_rbd.world.stage_names import STAGE_NAMES
-from thesis_rbd.world.steady import WorldSteadySteps
-from thesis_rbd.world.steady_steps import FINISHED
+from thesis_rbd.world.step_kernel import (
+    BOUNDS,
+    BROAD_PHASE,
+    CONTACTS,
+    FINISHED,
+    FORCES,
+    IMPACTS,
+    NARROW_PHASE,
+    SLEEP,
+    TIME_OF_IMPACT,
+    TUNNELLING,
+    run_steps,
+)
+from thesis_rbd.world.step_state import StepState
 from thesis_rbd.world.time_of_impact import passed_through, step_back_to_impact
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
 
-# no contacts, and what a step without contact impulses acted at: (contacts, impulses (c, 3))
-_NO_CONTACTS = ContactSet.empty()
-_NO_CONTACT_ACTED = (_NO_CONTACTS, np.zeros((0, 3)))
+# The largest force component ``apply_force`` takes (N): the kernels square forces and the
+# momenta they give, and 1e150 squared stays finite with room for sums.
+MOST_FORCE = 1e150
 
 
 class NonFiniteStateError(FloatingPointError):
@@ -106,7 +110,18 @@ class _StepFailed(Exception):
         self.body = body
 
 
-class World(WorldSteadySteps, WorldReadout):
+@dataclasses.dataclass
+class _StepStart:
+    """What a failed step puts back besides the body state the kernel saved: the step state
+    it began with, the applied forces before the forces stage ran their durations down, and
+    the sleep bookkeeping before a narrow phase woke an island (None: nothing changed)."""
+
+    state: StepState
+    applied_forces: AppliedForces
+    sleep: tuple | None = None
+
+
+class World(WorldReadout):
     """A rigid-body world stepped at a fixed time step.
 
     Parameters
@@ -180,19 +195,7 @@ class World(WorldSteadySteps, WorldReadout):
         self._collision = CollisionPipeline(narrow_phase)
         self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
-        self._warm_start = WarmStart()
-        self._contact_stats = np.zeros(len(STATS), np.int64)
-        self._impact_count = 0
-        # what the stages hand each other (see the module docstring)
-        self._contacts = _NO_CONTACTS  # at the bodies' current positions
-        self._acted = _NO_CONTACT_ACTED  # what this step's impulses acted at
-        self._candidates = np.zeros((0, 2), np.int64)
-        self._fast = np.zeros(0, bool)
-        self._fast_count = 0
-        self._slowest = np.inf
-        self._rewind = np.zeros(0)
-        self._rewound = False
-        self._pipeline: list[tuple] = []
+        self._state = StepState.initial(0, len(STATS))
         self._plan_stages()
 
     # ------------------------------------------------------------------ building the scene
@@ -268,6 +271,11 @@ class World(WorldSteadySteps, WorldReadout):
         """
         body = self._check_body(body)
         force = as_finite_array(force, "force", shape=(3,))
+        if np.abs(force).max() > MOST_FORCE:
+            raise ValueError(
+                f"force {force.tolist()} exceeds {MOST_FORCE:g} N in a component: the kernels "
+                "square forces and the momenta they give, which would overflow"
+            )
         if point is None:
             arm = np.zeros(3)
         else:
@@ -295,16 +303,14 @@ class World(WorldSteadySteps, WorldReadout):
     @property
     def stages(self) -> list[str]:
         """Names of the stages this scene needs, in pipeline order."""
-        return [entry[0] for entry in self._pipeline]
+        return [name for name, planned in zip(STAGE_NAMES, self._planned, strict=True) if planned]
 
     def _plan_stages(self) -> None:
-        """Derive the pipeline from the scene: only the effects it calls for.
-
-        Each entry is (name, stage, guard, profile entry): a stage whose guard returns False
-        this step is skipped without being called.
-        """
+        """Derive the stages from the scene (only the effects it calls for) and what the step
+        kernel takes of the world; called whenever bodies, forces or settings change."""
         b = self.bodies
-        dynamic = bool(b.count) and not bool(np.all(b.static))
+        n = b.count
+        dynamic = bool(n) and not bool(np.all(b.static))
         gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
         collidable = b.collidable
         collides = (
@@ -313,72 +319,64 @@ class World(WorldSteadySteps, WorldReadout):
             and not bool(np.all(b.static[collidable]))
         )
         responds = collides and self.contact_response
-        pipeline = []
-        if gathers_forces:
-            pipeline.append(("forces", self._stage_forces, _always))
-        if responds:
-            pipeline.append(("contacts", self._stage_contacts, self._has_contacts))
-        if dynamic:
-            pipeline.append(("integrate", self._stage_integrate, self._any_awake))
-        if collides:
-            pipeline.append(("bounds", self._stage_bounds, self._any_awake))
-            pipeline.append(("broad_phase", self._stage_broad_phase, self._broad_phase_due))
-            pipeline.append(("narrow_phase", self._stage_narrow_phase, self._has_candidates))
-            pipeline.append(("tunnelling", self._stage_tunnelling, self._has_fast_bodies))
-        if responds and self.contact_settings.penetration == "toi":
-            pipeline.append(("time_of_impact", self._stage_time_of_impact, self._may_have_hit))
-            pipeline.append(("impacts", self._stage_impacts, self._has_rewound))
-        if collides and self._sleep.settings.enabled:
-            # bodies come to rest through contact: without collisions nothing would sleep
-            pipeline.append(("sleep", self._stage_sleep, self._sleep_due))
-        self._pipeline = [(*entry, self.profile[entry[0]]) for entry in pipeline]
-        # where in the pipeline a step that stopped at stage k resumes
-        ranks = [STAGE_NAMES.index(entry[0]) for entry in pipeline]
-        self._resume_at = [
-            next((i for i, rank in enumerate(ranks) if rank >= k), len(ranks))
-            for k in range(len(STAGE_NAMES))
-        ]
-        # every stage a known kernel while the bodies are convex and awake: run_steady_steps
-        self._steady = (
-            responds
-            and self.contact_settings.penetration == "toi"
-            and len(self.applied_forces) == 0
-        )
-        self._collision_planned = collides
+        toi = responds and self.contact_settings.penetration == "toi"
+        # bodies come to rest through contact: without collisions nothing would sleep
+        sleeps = collides and self._sleep.settings.enabled
+        planned = {
+            "forces": gathers_forces, "contacts": responds, "integrate": dynamic,
+            "bounds": collides, "broad_phase": collides, "narrow_phase": collides,
+            "tunnelling": collides, "time_of_impact": toi, "impacts": toi, "sleep": sleeps,
+        }  # fmt: skip
+        self._planned = np.array([planned[name] for name in STAGE_NAMES])
+        self._responds, self._collides = responds, collides
         self._contacts_stale = responds
+        self._replan_after_step = False
         # speculative contacts across the gap gravity closes in a step, twice over (a body
         # that lost its support for a step falls g dt^2 and gains g dt): a 2 mm cube's is
         # 8 % of its edge, far beyond the margin relative to its size
         reach = 2.0 * float(np.linalg.norm(self.gravity)) * self.dt**2
         self._collision.plan(b, reach)
-        n = b.count
-        self._start_position = b.position.copy()
-        self._start_orientation = b.orientation.copy()
-        self._solved = np.zeros(n, bool)
-        self._fast = np.zeros(n, bool)
-        self._rewind = np.zeros(n)
-        # the kernels' body arguments, looked up once per plan (arrays change only on add_body)
-        full = b.full
-        self._state = tuple(
-            full(f) for f in ("position", "orientation", "linear_momentum", "angular_momentum")
-        )
-        self._constants = tuple(
-            full(f)
-            for f in (
-                "inverse_mass", "inverse_inertia_body", "inertia_body", "thickness",
-                "restitution", "friction",
-            )
-        )  # fmt: skip
-        self._settings = self.contact_settings.as_array(self.dt)
-        self._polygon = friction_polygon(self.contact_settings.friction_sides)
-        self._sleep_changed()
-        self._stale_plan = False
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
-        self._external_force = self._gravity_force
-        self._point_forces = PointForces.empty(n)
-        if self._steady:
-            self._gather_steady_arguments()
+        fast = np.zeros(n, bool)
+        self._state = dataclasses.replace(
+            self._state, external_force=self._gravity_force,
+            point_forces=PointForces.empty(n), solved=np.zeros(n, bool),
+            start_position=b.position.copy(), start_orientation=b.orientation.copy(),
+            fast=fast, rewind=np.zeros(n), refit_all=True,
+            **self._sleep_fields(),
+        )  # fmt: skip
+        # the step kernel's arguments that change only with the plan
+        full = b.full
+        settings = self.contact_settings
+        self._kernel_bodies = (
+            *(full(f) for f in ("position", "orientation", "linear_momentum", "angular_momentum")),
+            *(full(f) for f in (
+                "inverse_mass", "inverse_inertia_body", "inertia_body", "thickness",
+                "restitution", "friction",
+            )),
+        )  # fmt: skip
+        self._saved = b.saved_state()
+        self._contact_group = (
+            (settings.as_array(self.dt), friction_polygon(settings.friction_sides),
+             self._state.contact_stats)
+            if responds else None
+        )  # fmt: skip
+        detector = self._collision
+        self._detection_group = detector.detection_arguments(self.dt, fast) if collides else None
+        self._convex_group = detector.convex_arguments() if collides else None
+        self._method = INTEGRATORS[self.integrator]
+        self._stage_cycles = np.zeros(len(STAGE_NAMES), np.int64)
+        self._stage_calls = np.zeros(len(STAGE_NAMES), np.int64)
+
+    def _sleep_fields(self) -> dict:
+        """The step state's fields that follow who sleeps: ``frozen`` (n,) bool marks the
+        bodies that do not move (static or asleep), ``awake`` whether any body moves,
+        ``any_asleep`` whether any sleeps."""
+        frozen = self.bodies.static | self._sleep.asleep
+        return dict(
+            frozen=frozen, awake=not bool(np.all(frozen)), any_asleep=self._sleep.any_asleep
+        )
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -396,253 +394,238 @@ class World(WorldSteadySteps, WorldReadout):
         while remaining > 0:
             if self._contacts_stale:
                 self._detect_contacts()
-            if self._steady_now():
-                done, first, bad = self._run_steady_steps(remaining)
-                remaining -= done
-                if first == FINISHED:
-                    continue
-                if bad >= 0:
-                    self._fail(bad, STAGE_NAMES[first])
-            else:
-                self._save()
-                first = 0
-            self._run_stages(first)
-            remaining -= 1
+            remaining -= self._run(remaining, FORCES)
 
-    def _run_stages(self, first: int) -> None:
-        """Run the stages of this step from the one ``STAGE_NAMES[first]`` on, then end it."""
-        for name, stage, guard, entry in self._pipeline[self._resume_at[first] :]:
-            if not guard():
-                continue
-            start = perf_counter()
-            try:
-                stage()
-            except _StepFailed as failure:
-                self._fail(failure.body, name)
-            entry["seconds"] += perf_counter() - start
-            entry["calls"] += 1
-        self.time += self.dt
-        self.steps_taken += 1
-        if self._stale_plan:
-            self._plan_stages()
-
-    def _fail(self, body: int, stage: str) -> NoReturn:
-        """Put the world back as it was before this step and raise the error naming the
-        body that went non-finite, the stage and the step."""
-        self._restore()
-        raise NonFiniteStateError(body, self.bodies.names[body], stage, self.steps_taken) from None
+    def _run(self, steps: int, first: int, detect_only: bool = False) -> int:
+        """Run up to ``steps`` steps from stage ``first`` of the current one: the kernel runs
+        the stages, and each stage it stops at runs here, until it finishes, or until the end
+        of a step after which the scene must be planned again. Returns the steps done."""
+        done = 0
+        while True:
+            batch = 1 if self._replan_after_step else steps - done
+            ran, stop = self._run_kernel(batch, first, detect_only)
+            done += ran
+            if stop == FINISHED:
+                if self._replan_after_step:
+                    self._plan_stages()
+                return done
+            self._run_python_stage(stop)
+            first = stop + 1
 
     def _detect_contacts(self) -> None:
         """Find the contacts where the bodies are now, for the first step after the scene
         changed: the contact stage acts on contacts found at the end of the previous step."""
         self._contacts_stale = False
-        for name, stage, guard, entry in self._pipeline:
-            if name in ("bounds", "broad_phase", "narrow_phase") and guard():
-                start = perf_counter()
-                stage()
-                entry["seconds"] += perf_counter() - start
-                entry["calls"] += 1
+        self._step_start = _StepStart(self._state, self.applied_forces)
+        self._run(1, BOUNDS, detect_only=True)
 
-    def _save(self) -> None:
-        """Keep what a failed step must put back: the body state and the stage hand-overs."""
-        self.bodies.save_state()
-        forces = self.applied_forces
-        # applied forces change only while some are active (their durations run down)
-        self._saved = (
-            self._contacts,
-            self._acted,
-            dataclasses.replace(forces) if len(forces) else forces,
-        )
-        self._acted = _NO_CONTACT_ACTED
-        self._solved[:] = False
-        self._rewound = False
+    def _run_kernel(self, steps: int, first: int, detect_only: bool) -> tuple[int, int]:
+        """One ``run_steps`` call from the current step state; takes what it returns.
+        Returns the steps done and the stage it stopped at (``FINISHED``: none)."""
+        s = self._state
+        c, acted, pf = s.contacts, s.acted, s.point_forces
+        cycles, calls = self._stage_cycles, self._stage_calls
+        started = perf_counter()
+        (
+            done, self.time, stop, bad, contacts, acted, warm, cache, at_start,
+            candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
+        ) = run_steps(
+            steps, first, detect_only, self.time, self.dt, self.bodies.count, self._method,
+            self._planned, len(self.applied_forces) > 0, s.frozen, s.awake, s.any_asleep,
+            self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
+            *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
+            pf.force, *self._saved, s.start_position, s.start_orientation, s.solved,
+            self._contact_group, self._detection_group, self._convex_group,
+            (c.ints, c.floats, c.count), (acted.ints, acted.floats, acted.count, s.impulses),
+            (s.warm_keys, s.warm_values), s.convex_cache, s.candidate_count, s.fast_count,
+            s.slowest, s.fat_changed, s.refit_all, s.rewound, cycles, calls,
+        )  # fmt: skip
+        self._share_profile(perf_counter() - started, cycles, calls)
+        self.steps_taken += done
+        if calls[CONTACTS]:
+            s = dataclasses.replace(s, impact_count=0)
+        self._state = dataclasses.replace(
+            s, contacts=ContactSet(*contacts), acted=ContactSet(*acted[:3]),
+            impulses=acted[3], warm_keys=warm[0], warm_values=warm[1], convex_cache=cache,
+            candidate_count=candidate_count, fast_count=fast_count, slowest=slowest,
+            fat_changed=fat_changed, refit_all=refit_all, rewound=rewound,
+        )  # fmt: skip
+        if stop != FINISHED and (done > 0 or first == FORCES):
+            # a step began in this call and stopped: what a failure in it must put back
+            start_contacts, start_acted, start_warm, start_cache = at_start
+            self._step_start = _StepStart(
+                dataclasses.replace(
+                    s, contacts=ContactSet(*start_contacts),
+                    acted=ContactSet(*start_acted[:3]), impulses=start_acted[3],
+                    warm_keys=start_warm[0], warm_values=start_warm[1],
+                    convex_cache=start_cache,
+                ),
+                self.applied_forces,
+            )  # fmt: skip
+        if bad >= 0:
+            self._fail(int(bad), STAGE_NAMES[stop])
+        return done, stop
 
-    def _restore(self) -> None:
+    def _run_python_stage(self, stage: int) -> None:
+        """Run the stage the kernel stopped at, timed into the profile."""
+        name = STAGE_NAMES[stage]
+        started = perf_counter()
+        try:
+            self._state = _STAGES_IN_PYTHON[stage](self, self._state)
+        except _StepFailed as failure:
+            self._fail(failure.body, name)
+        entry = self.profile[name]
+        entry["seconds"] += perf_counter() - started
+        entry["calls"] += 1
+
+    def _fail(self, body: int, stage: str) -> NoReturn:
+        """Put the world back as it was before this step and raise the error naming the
+        body that went non-finite, the stage and the step."""
+        start = self._step_start
         self.bodies.restore_state()
-        self._contacts, self._acted, self.applied_forces = self._saved
+        self.applied_forces = start.applied_forces
+        if start.sleep is not None:
+            self._sleep.restore(start.sleep)
+        self._state = start.state
         self._plan_stages()  # fat boxes refitted around the restored positions
+        raise NonFiniteStateError(body, self.bodies.names[body], stage, self.steps_taken) from None
 
-    def _stage_forces(self) -> None:
-        """Gather gravity and the applied forces active this step."""
+    def _share_profile(self, seconds: float, cycles: np.ndarray, calls: np.ndarray) -> None:
+        """Share a ``run_steps`` call's wall time among the stages it ran, in proportion to
+        their cycles (to their calls where the target counts no cycles)."""
+        cycles, calls = cycles.tolist(), calls.tolist()
+        total = sum(cycles)
+        weights = cycles if total > 0 else calls
+        scale = seconds / (total if total > 0 else max(sum(calls), 1))
+        for name, count, weight in zip(STAGE_NAMES, calls, weights, strict=True):
+            if count:
+                entry = self.profile[name]
+                entry["calls"] += count
+                entry["seconds"] += scale * weight
+
+    # ------------------------------------------------------------------ stages in Python
+    def _gather_forces(self, s: StepState) -> StepState:
+        """Gravity and the applied forces active this step."""
         applied = self.applied_forces
-        if len(applied) == 0:
-            return  # gravity alone: _external_force already holds M g
-        self._external_force, self._point_forces = applied.gather(
+        self._step_start.applied_forces = dataclasses.replace(applied)
+        external_force, point_forces = applied.gather(
             self.dt, self._gravity_force, self.bodies.static
         )
         if len(applied) == 0:
-            self._stale_plan = True  # the last applied force ran out: replan after this step
+            self._replan_after_step = True  # the last applied force ran out
+        return dataclasses.replace(s, external_force=external_force, point_forces=point_forces)
 
-    def _sleep_changed(self) -> None:
-        """Refresh what depends on who sleeps: called whenever a body falls asleep or wakes.
-
-        ``_frozen`` (n,) bool marks the bodies that do not move this step (static or asleep);
-        ``_awake`` says whether any body moves at all, ``_any_asleep`` whether any sleeps.
-        """
-        self._frozen = self.bodies.static | self._sleep.asleep
-        self._awake = not bool(np.all(self._frozen))
-        self._any_asleep = self._sleep.any_asleep
-
-    def _any_awake(self) -> bool:
-        return self._awake
-
-    def _has_contacts(self) -> bool:
-        return self._awake and self._contacts.count > 0
-
-    def _stage_contacts(self) -> None:
-        """Impulses of the contacts where the bodies are now, before they move."""
-        b, c, pf = self.bodies, self._contacts, self._point_forces
-        count = c.count
-        impulses = np.empty((count, 3))
-        warm = self._warm_start
-        keys, values = np.empty((count, 2), np.int64), np.empty((count, 6))
-        stats = self._contact_stats
-        solve_contacts(
-            self._settings, self._polygon, b.count, self._frozen, c.ints, c.floats, count,
-            *self._state, *self._constants, self._external_force, self._drag_array, pf.start,
-            pf.arm, pf.force, warm.keys, warm.values, keys, values, impulses, self._solved,
-            stats,
-        )  # fmt: skip
-        warm.keys, warm.values = keys, values
-        if stats[BAD_BODY] >= 0:
-            raise _StepFailed(int(stats[BAD_BODY]))
-        self._acted = (c, impulses)
-        self._impact_count = 0
-
-    def _stage_integrate(self) -> None:
-        """Move every awake body: those the contact stage acted on with their new velocities,
-        the others by the ODE method."""
+    def _update_broad_phase(self, s: StepState) -> StepState:
+        """Sweep-and-prune on the refitted fat boxes, then the candidate pairs: those with a
+        moving body whose tight boxes overlap."""
         b = self.bodies
-        pf = self._point_forces
-        bad = integrate_bodies(
-            INTEGRATORS[self.integrator], self.dt, b.count, self._frozen, self._solved,
-            *self._state, *self._constants[:2],
-            self._external_force, self._drag_array, pf.start, pf.arm, pf.force,
-            # where the step started: fast bodies are swept from here (no tunnelling)
-            self._collision_planned, self._start_position, self._start_orientation,
-        )  # fmt: skip
-        if bad >= 0:
-            raise _StepFailed(bad)
-
-    def _stage_bounds(self) -> None:
-        """Fast bodies (moved further than their own thickness) and fat boxes, refitted if a
-        moving body left its own."""
-        self._fast, self._fast_count, self._slowest = self._collision.bounds(
-            self.bodies, self._frozen, self._start_position, self.dt
+        count = self._collision.broad_phase(
+            True, b.full("position"), b.full("orientation"), s.start_position, s.fast, s.frozen
         )
+        self._detection_group = self._collision.detection_arguments(self.dt, s.fast)
+        contacts = s.contacts if count else ContactSet.empty()
+        return dataclasses.replace(s, candidate_count=count, fat_changed=False, contacts=contacts)
 
-    def _broad_phase_due(self) -> bool:
-        # not due: no fat pairs, so the last call already left no candidates and no contacts
-        return self._awake and self._collision.broad_phase_due
-
-    def _stage_broad_phase(self) -> None:
-        """Sweep-and-prune on the fat boxes if they changed; candidate pairs with at least one
-        moving body and overlapping tight boxes."""
-        self._candidates = self._collision.broad_phase(self._frozen)
-        if len(self._candidates) == 0:
-            self._contacts = _NO_CONTACTS  # the narrow phase will not run this step
-
-    def _has_candidates(self) -> bool:
-        return self._awake and len(self._candidates) > 0
-
-    def _stage_narrow_phase(self) -> None:
+    def _find_contacts(self, s: StepState) -> StepState:
         """Contacts of the candidate pairs (convex pairs by the convex kernel, the others by
-        the OBBTree); a touched sleeping island wakes."""
-        self._contacts = self._collision.narrow_phase(self._candidates)
-        if self._any_asleep and self._sleep.wake_touched(self._contacts, self.bodies.static):
-            self._sleep_changed()
+        the OBBTree); a touched sleeping island wakes, and its own contacts are found too."""
+        b, detector = self.bodies, self._collision
+        position, orientation = b.full("position"), b.full("orientation")
+        contacts, cache = detector.contacts(
+            detector.candidates(s.candidate_count), position, orientation, s.convex_cache
+        )
+        sleep_before = self._sleep.snapshot() if s.any_asleep else None
+        if s.any_asleep and self._sleep.wake_touched(contacts, b.static):
+            self._step_start.sleep = sleep_before
+            s = dataclasses.replace(s, **self._sleep_fields())
             # the woken islands' own contacts were not candidates: find them now
-            self._candidates = self._collision.broad_phase(self._frozen)
-            self._contacts = self._collision.narrow_phase(self._candidates)
+            count = detector.broad_phase(
+                False, position, orientation, s.start_position, s.fast, s.frozen
+            )
+            s = dataclasses.replace(s, candidate_count=count)
+            contacts, cache = detector.contacts(
+                detector.candidates(count), position, orientation, cache
+            )
+        return dataclasses.replace(s, contacts=contacts, convex_cache=cache)
 
-    def _has_fast_bodies(self) -> bool:
-        return self._awake and self._fast_count > 0
-
-    def _stage_tunnelling(self) -> None:
+    def _catch_tunnelling(self, s: StepState) -> StepState:
         """Sampling along the step for fast bodies only: put back what passed through."""
-        self._contacts, _ = self._collision.sweep(
-            self.bodies, self._candidates, self._contacts, self._fast, self._start_position,
-            self._start_orientation,
+        b = self.bodies
+        contacts, caught, position, orientation = self._collision.sweep(
+            self._collision.candidates(s.candidate_count), s.contacts, s.fast,
+            b.full("position"), b.full("orientation"), s.start_position, s.start_orientation,
+            s.convex_cache,
         )  # fmt: skip
+        b.position[caught], b.orientation[caught] = position, orientation
+        return dataclasses.replace(s, contacts=contacts)
 
-    def _may_have_hit(self) -> bool:
-        """Whether a contact has a body that flew freely this step (neither resting nor
-        moved by the contact stage): only such a body can have run into something."""
-        if not self._has_contacts():
-            return False
-        c = self._contacts
-        return any_free_body(c.ints, c.count, self._frozen, self._solved)
-
-    def _stage_time_of_impact(self) -> None:
+    def _step_back_to_impact(self, s: StepState) -> StepState:
         """Bodies in free flight that ran into something go back to when they touched."""
-        b, c = self.bodies, self._contacts
+        b, c, detector = self.bodies, s.contacts, self._collision
         n = b.count
-        movers = ~(self._frozen | self._solved[:n])
+        movers = ~(s.frozen | s.solved[:n])
+        state, masses = self._kernel_bodies[:4], self._kernel_bodies[4:6]
         hits, receding, v, w = find_hits(
-            n, self._frozen, movers, c.ints, c.floats, c.count, *self._state,
-            *self._constants[:2],
-        )  # fmt: skip
+            n, s.frozen, movers, c.ints, c.floats, c.count, *state, *masses
+        )
         if receding.any():
             hits |= passed_through(
-                self._collision, c, receding, self._start_position, self._start_orientation
+                detector, c, receding, s.start_position, s.start_orientation, s.convex_cache
             )
         if not hits.any():
-            return
-        acceleration = self._external_force * b.inverse_mass[:, None]
-        self._rewind, self._contacts = step_back_to_impact(
-            self._collision, b, c, hits, movers, v, w, acceleration, self.dt
+            return s
+        acceleration = s.external_force * b.inverse_mass[:, None]
+        rewind, contacts = step_back_to_impact(
+            detector, b, c, hits, movers, v, w, acceleration, self.dt, s.convex_cache
         )
-        rewound = self._rewind > 0
-        self._rewound = bool(rewound.any())
+        rewound = rewind > 0
         # the stepped-back bodies carry the velocity of their time of impact
         b.linear_momentum[rewound] = v[rewound] / b.inverse_mass[rewound, None]
+        return dataclasses.replace(s, rewind=rewind, rewound=bool(rewound.any()), contacts=contacts)
 
-    def _has_rewound(self) -> bool:
-        return self._rewound
-
-    def _stage_impacts(self) -> None:
+    def _resolve_impacts(self, s: StepState) -> StepState:
         """Collisions at the time of impact, then the rest of the step for those bodies."""
-        b, c, pf = self.bodies, self._contacts, self._point_forces
+        b, c, pf = self.bodies, s.contacts, s.point_forces
         impulses = np.zeros((c.count, 3))
+        settings, polygon, _ = self._contact_group
         stats, resolved = resolve_impacts(
-            self._settings, self._polygon, b.count, self._frozen, self._rewind, c.ints,
-            c.floats, c.count, *self._state, *self._constants, self._external_force,
-            self._drag_array, pf.start, pf.arm, pf.force, impulses,
+            settings, polygon, b.count, s.frozen, s.rewind, c.ints, c.floats, c.count,
+            *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
+            pf.force, impulses,
         )  # fmt: skip
         if stats[BAD_BODY] >= 0:
             raise _StepFailed(int(stats[BAD_BODY]))
-        self._rewind[:] = 0.0
-        acted, acted_impulses = self._acted
-        self._acted = (
-            ContactSet.concatenate([acted, c.select(resolved)]),
-            np.concatenate([acted_impulses, impulses[resolved]]),
-        )
-        self._impact_count = int(stats[ISLANDS])
+        return dataclasses.replace(
+            s, rewind=np.zeros(b.count),
+            acted=ContactSet.concatenate([s.acted, c.select(resolved)]),
+            impulses=np.concatenate([s.impulses, impulses[resolved]]),
+            impact_count=int(stats[ISLANDS]),
+        )  # fmt: skip
 
-    def _sleep_due(self) -> bool:
-        return self._awake and self._sleep.update_due(self._slowest, self._has_contacts())
-
-    def _stage_sleep(self) -> None:
+    def _fall_asleep(self, s: StepState) -> StepState:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
-        fell = self._sleep.update(b, self._contacts, self.dt)
-        if len(fell):
-            b.linear_momentum[fell] = 0.0
-            b.angular_momentum[fell] = 0.0
-            self._sleep_changed()
-            # contacts between sleeping (or static) bodies need no solving
-            c = self._contacts
-            active = ~(self._frozen[c["body_a"]] & self._frozen[c["body_b"]])
-            self._contacts = c.select(active)
+        fell = self._sleep.update(b, s.contacts, self.dt)
+        if not len(fell):
+            return s
+        b.linear_momentum[fell] = 0.0
+        b.angular_momentum[fell] = 0.0
+        s = dataclasses.replace(s, **self._sleep_fields())
+        # contacts between sleeping (or static) bodies need no solving
+        c = s.contacts
+        active = ~(s.frozen[c["body_a"]] & s.frozen[c["body_b"]])
+        return dataclasses.replace(s, contacts=c.select(active))
 
+    # ------------------------------------------------------------------ read-outs
     @property
     def contact_info(self) -> dict:
         """What the last contact stage did: ``islands``, PGS ``sweeps`` (in all) and
         ``max_sweeps`` (of one island), ``exact_islands`` solved by Lemke's method,
         ``unconverged`` islands (PGS at its sweep limit, or an exact solve that fell back),
         and ``impacts``, islands resolved at their time of impact in the last step."""
-        info = dict(zip(STATS[:BAD_BODY], self._contact_stats[:BAD_BODY].tolist(), strict=True))
-        info["impacts"] = self._impact_count
+        stats = self._state.contact_stats[:BAD_BODY].tolist()
+        info = dict(zip(STATS[:BAD_BODY], stats, strict=True))
+        info["impacts"] = self._state.impact_count
         return info
 
     @property
@@ -657,23 +640,33 @@ class World(WorldSteadySteps, WorldReadout):
         Keys: ``body_a``, ``body_b`` (c,) int64; ``points``, ``normals`` (c, 3), normals from
         body_b towards body_a; ``depths`` (c,), > 0 penetration, < 0 a gap: convex pairs
         apart by less than a thousandth of the thinner body's thickness have speculative
-        contacts (see ``collision.convex_contacts``); ``faces`` (c, 2) [face of a, face of b]
-        (-1 for convex pairs); ``features`` (c,) int64 feature ids of convex pairs' contacts,
-        the same from step to step while their features are (-1 for mesh pairs);
+        contacts (see ``collision.convex.contacts``); ``faces`` (c, 2) [face of a, face of
+        b] (-1 for convex pairs); ``features`` (c,) int64 feature ids of convex pairs'
+        contacts, the same from step to step while their features are (-1 for mesh pairs);
         ``impulses`` (c, 3) (normal, t1, t2). With a response, these are the contacts the
         step's impulses acted at: those found where the bodies were at the start of the step,
         and those of collisions at their time of impact. In a detection-only world, the
         contacts the narrow phase found at the end of the step, with zero impulses.
         """
+        s = self._state
         if self.contact_response:
-            contacts, impulses = self._acted
+            contacts, impulses = s.acted, s.impulses
         else:
-            contacts = self._contacts
+            contacts = s.contacts
             impulses = np.zeros((contacts.count, 3))
         found = {key: value.copy() for key, value in contacts.items()}
         found["impulses"] = impulses.copy()
         return found
 
 
-def _always() -> bool:
-    return True
+# The stages the step kernel leaves to Python, by stage index (their order and guards are the
+# kernel's).
+_STAGES_IN_PYTHON = {
+    FORCES: World._gather_forces,
+    BROAD_PHASE: World._update_broad_phase,
+    NARROW_PHASE: World._find_contacts,
+    TUNNELLING: World._catch_tunnelling,
+    TIME_OF_IMPACT: World._step_back_to_impact,
+    IMPACTS: World._resolve_impacts,
+    SLEEP: World._fall_asleep,
+}
