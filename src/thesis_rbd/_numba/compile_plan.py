@@ -147,9 +147,12 @@ class PlannedCompile:
         Raises
         ------
         LookupError
-            If the package has no such kernel (the plan is older than the code).
+            If the package has no such kernel or module (the plan is older than the code).
         """
-        found = importlib.import_module(self.module)
+        try:
+            found = importlib.import_module(self.module)
+        except ImportError as missing:
+            raise LookupError(f"no module {self.module}") from missing
         for name in self.qualname.split("."):
             found = getattr(found, name, None)
         if not hasattr(found, "overloads"):

@@ -3,7 +3,11 @@
 Every kernel is compiled with ``cache=True`` so that a warm interpreter loads machine code from
 ``__pycache__`` instead of recompiling, and without ``fastmath``: the collision and contact
 kernels rely on IEEE comparisons (NaN propagation, exact ties in the broad phase) and nothing
-has been measured that would justify giving that up.
+has been measured that would justify giving that up. For the same reason a division by zero
+follows IEEE arithmetic (``error_model="numpy"``: inf or NaN) instead of raising Python's
+ZeroDivisionError from inside a kernel: a state that diverges (a quaternion whose norm
+overflowed, then was divided by) shows as non-finite, which the stages check and report as
+``NonFiniteStateError`` naming the body, and a step never stops half done on an exception.
 
 A kernel called from another kernel is compiled once per argument *type*, not once per
 constant value: numba's own dispatcher types a literal argument (``f(x, 0)``, ``g(True)``)
@@ -124,7 +128,7 @@ class _PackageFunctionCache(FunctionCache):
             return None  # compiled afresh, with its separate kernels
 
 
-_POLICY = {"nopython": True, "fastmath": False}
+_POLICY = {"nopython": True, "fastmath": False, "error_model": "numpy"}
 
 
 class _TypeDispatcher(CPUDispatcher):

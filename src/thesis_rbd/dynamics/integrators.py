@@ -186,8 +186,9 @@ def integrate_bodies(
     Returns
     -------
     bad_body : int
-        The first body whose new state is not finite, or -1 (checked here, where the state
-        is in registers, so a step that goes wrong costs nothing to detect).
+        The first body whose new state is not finite, or whose orientation is no longer a
+        unit quaternion (its norm overflowed), or -1 (checked here, where the state is in
+        registers, so a step that goes wrong costs nothing to detect).
     """
     h = dt
     bad = -1
@@ -244,8 +245,11 @@ def integrate_bodies(
             angular_momentum[i, k] = L[k]
         for k in range(4):
             orientation[i, k] = q[k]
+        # a quaternion whose square norm overflowed normalises to zero, finite but no rotation
+        unit = 0.5 < q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] < 2.0
         if bad < 0 and not (
-            math.isfinite(x[0] + x[1] + x[2] + q[0] + q[1] + q[2] + q[3])
+            unit
+            and math.isfinite(x[0] + x[1] + x[2])
             and math.isfinite(P[0] + P[1] + P[2] + L[0] + L[1] + L[2])
         ):
             bad = i
