@@ -1,4 +1,4 @@
-"""Time whole steps under an earlier checkout and this one, in one process, runs alternated.
+"""Time steps and queries under an earlier checkout and this one, in one process, alternated.
 
 A change to how a step is orchestrated must not slow it down, and two runs of a benchmark on a
 shared machine differ by more than the few per cent at stake. So both packages step the same
@@ -12,9 +12,11 @@ other, alternating which goes first::
 Scenes are the step benchmark's (:mod:`validation.bench_step`): one cube, ten cubes, the
 15-row pyramid, the 256-cube pile and the 1000-cube grid, kept awake; plus the one cube
 stepped one step per call (the per-call overhead of a small scene). Both worlds settle first
-(compiling every kernel), then each run times the same number of steps in each; the ratio
-after / before per run, and its median over the runs, are printed and written to
-``--out`` (JSON) with both commits, the date and the machine.
+(compiling every kernel), then each run times the same number of steps in each. The queries
+are the query benchmark's (:mod:`validation.bench_queries`): ``distance`` along the tori path,
+``collide`` in each mode along it, ``collide_batch`` over it and over 10000 random poses, and
+4000 rays at a torus. The ratio after / before per run, and its median over the runs, are
+printed and written to ``--out`` (JSON) with both commits, the date and the machine.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 import thesis_rbd
 from validation.bench_step import DT, SCENES
@@ -59,6 +63,70 @@ def build(package, spec):
     return world
 
 
+def query_workloads(package) -> dict:
+    """Name -> a function running one sweep of that query with ``package``."""
+    from validation.bench_queries import RAY_COUNT, random_poses
+    from validation.tori import tori_mesh, tori_poses
+
+    tree = package.OBBTree(tori_mesh())
+    identity, poses, cloud = np.eye(4), tori_poses(), random_poses(10000, 4.0)
+    torus = package.OBBTree(package.shapes.torus(1.0, 0.3, 50, 20))
+    rng = np.random.default_rng(0)
+    origins = rng.normal(size=(RAY_COUNT, 3)) * 3.0
+    directions = rng.normal(size=(RAY_COUNT, 3)) * 0.4 - origins
+
+    def sweep(mode):
+        return lambda: [package.collide(tree, identity, tree, P, mode=mode) for P in poses]
+
+    return {
+        "distance, tori path": lambda: [package.distance(tree, identity, tree, P) for P in poses],
+        "collide first, tori path": sweep("first"),
+        "collide all, tori path": sweep("all"),
+        "collide contacts, tori path": sweep("contacts"),
+        "collide_batch, tori path": lambda: package.collide_batch(tree, identity, tree, poses),
+        "collide_batch, 10000 poses in 4 m": lambda: package.collide_batch(
+            tree, identity, tree, cloud
+        ),
+        "ray_cast, 4000 rays": lambda: package.ray_cast(torus, identity, origins, directions),
+    }
+
+
+def compare_queries(before_package, runs: int) -> dict:
+    results = {}
+    workloads = {"before": query_workloads(before_package), "after": query_workloads(thesis_rbd)}
+    for name in workloads["after"]:
+        for which in ("before", "after"):
+            workloads[which][name]()  # compile
+        seconds = {"before": [], "after": []}
+        for run in range(runs):
+            order = ("before", "after") if run % 2 == 0 else ("after", "before")
+            for which in order:
+                start = time.perf_counter()
+                workloads[which][name]()
+                seconds[which].append(time.perf_counter() - start)
+        results[name] = _summary(name, seconds, 1)
+    return results
+
+
+def _summary(name: str, seconds: dict, steps: int) -> dict:
+    ratios = [a / b for a, b in zip(seconds["after"], seconds["before"], strict=True)]
+    unit = "us/step" if steps > 1 else "ms"
+    scale = 1e6 / steps if steps > 1 else 1e3
+    print(
+        f"{name}: before {scale * statistics.median(seconds['before']):.2f} {unit}, "
+        f"after {scale * statistics.median(seconds['after']):.2f} {unit}, "
+        f"median ratio {statistics.median(ratios):.3f}"
+    )
+    sys.stdout.flush()
+    return {
+        "steps_per_run": steps,
+        "before_seconds": seconds["before"],
+        "after_seconds": seconds["after"],
+        "ratios": ratios,
+        "median_ratio": statistics.median(ratios),
+    }
+
+
 def timed(world, per_call: int, calls: int) -> float:
     start = time.perf_counter()
     for _ in range(calls):
@@ -78,21 +146,7 @@ def compare(before_package, runs: int) -> dict:
             order = ("before", "after") if run % 2 == 0 else ("after", "before")
             for which in order:
                 seconds[which].append(timed(worlds[which], per_call, calls))
-        ratios = [a / b for a, b in zip(seconds["after"], seconds["before"], strict=True)]
-        steps = per_call * calls
-        results[name] = {
-            "steps_per_run": steps,
-            "before_us_per_step": [1e6 * s / steps for s in seconds["before"]],
-            "after_us_per_step": [1e6 * s / steps for s in seconds["after"]],
-            "ratios": ratios,
-            "median_ratio": statistics.median(ratios),
-        }
-        print(
-            f"{name}: before {1e6 * statistics.median(seconds['before']) / steps:.2f} us/step, "
-            f"after {1e6 * statistics.median(seconds['after']) / steps:.2f} us/step, "
-            f"median ratio {statistics.median(ratios):.3f}"
-        )
-        sys.stdout.flush()
+        results[name] = _summary(name, seconds, per_call * calls)
     return results
 
 
@@ -100,11 +154,16 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("before", type=Path, help="the earlier checkout (a git worktree)")
     parser.add_argument("--runs", type=int, default=7)
+    parser.add_argument("--only", choices=("steps", "queries"), help="one kind of workload")
     parser.add_argument("--out", type=Path, help="write the figures here (JSON)")
     options = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as folder:
         before = import_renamed(options.before.resolve(), Path(folder))
-        results = compare(before, options.runs)
+        results = {}
+        if options.only != "queries":
+            results.update(compare(before, options.runs))
+        if options.only != "steps":
+            results.update(compare_queries(before, options.runs))
     if options.out:
         record = {
             "before": commit_of(options.before),

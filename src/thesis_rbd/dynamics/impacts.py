@@ -148,38 +148,13 @@ def resolve_impacts(
     )
     dt = settings[cs.DT]
     n = count
-    c = contact_count
     stats = np.zeros(6, np.int64)
     stats[BAD_BODY] = -1
-    body_island, order, island_start = find_islands(n, body_a, body_b, static)
-    islands = island_start.shape[0] - 1
-    island_time = np.zeros(islands)
-    for i in range(n):
-        if body_island[i] >= 0:
-            island_time[body_island[i]] = max(island_time[body_island[i]], rewind[i])
-    # keep the contacts of islands with a stepped-back body, island by island
-    keep = np.zeros(c, np.bool_)
-    starts = [0]
-    kept = 0
-    for isl in range(islands):
-        if island_time[isl] <= 0.0:
-            continue
-        for idx in range(island_start[isl], island_start[isl + 1]):
-            keep[order[idx]] = True
-        kept += island_start[isl + 1] - island_start[isl]
-        starts.append(kept)
-    resolved = keep.copy()
+    resolved, sel, sub_start = _impact_islands(n, body_a, body_b, static, rewind)
+    kept = sel.shape[0]
     if kept == 0:
         return stats, resolved
-    stats[ISLANDS] = len(starts) - 1
-    sel = np.empty(kept, np.int64)
-    m = 0
-    for isl in range(islands):
-        if island_time[isl] > 0.0:
-            for idx in range(island_start[isl], island_start[isl + 1]):
-                sel[m] = order[idx]
-                m += 1
-    sub_start = np.array(starts, np.int64)
+    stats[ISLANDS] = sub_start.shape[0] - 1
     sa, sb = body_a[sel], body_b[sel]
     arm_a, arm_b = contact_arms(points, position, sel, sa, sb)
     sub_normals = normals[sel]
@@ -189,52 +164,18 @@ def resolve_impacts(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body,
     )  # fmt: skip
-    # each body's acceleration over the step, for the bounce thresholds and the rest of it
-    acceleration = np.zeros((n, 3))
-    alpha = np.zeros((n, 3))
-    for i in range(n):
-        if static[i]:
-            continue
-        F, T = body_forces(
-            i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
-            inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
-        )  # fmt: skip
-        Ii = inverse_inertia[i]
-        for a in range(3):
-            acceleration[i, a] = F[a] * inverse_mass[i]
-            alpha[i, a] = Ii[a, 0] * T[0] + Ii[a, 1] * T[1] + Ii[a, 2] * T[2]
+    acceleration, alpha = _accelerations(
+        n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+        inverse_inertia_body, inverse_inertia, external_force, drag, pf_start, pf_arm, pf_force,
+    )  # fmt: skip
 
     # 1. the collision at the time of impact
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
     rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
-    bias = np.empty(kept)
-    bounce = np.zeros(kept)
-    mu = np.empty(kept)
-    tolerance = np.empty(kept)
-    fastest = 0.0
-    for k in range(kept):
-        a, b = sa[k], sb[k]
-        u = normal_velocity(k, a, b, sub_normals, arm_a, arm_b, v, w)
-        fastest = max(fastest, abs(u))
-        du = 0.0
-        for i in range(3):
-            du += sub_normals[k, i] * dt * (acceleration[a, i] - acceleration[b, i])
-        threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
-        if u < -threshold:
-            bounce[k] = combined_restitution(restitution, a, b)
-        # a contact not touching yet (beyond round-off: within the slop) takes no part in the
-        # collision
-        bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
-        mu[k] = combined_friction(friction, a, b)
-    for isl in range(sub_start.shape[0] - 1):
-        s, e = sub_start[isl], sub_start[isl + 1]
-        rebound = False
-        for k in range(s, e):
-            rebound |= bounce[k] > 0.0
-        for k in range(s, e):
-            tolerance[k] = IMPACT_TOLERANCE * fastest
-            if not rebound:
-                bias[k] = np.inf  # the collision only stops the approach: phase 2 does that
+    bias, bounce, mu, tolerance = _collision_terms(
+        settings, sel, sub_start, sa, sb, depths, sub_normals, arm_a, arm_b, v, w,
+        acceleration, slop, restitution, friction,
+    )  # fmt: skip
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
@@ -265,20 +206,140 @@ def resolve_impacts(
         relaxed, movable_mass, inverse_inertia, v, w, rest, stats,
     )  # fmt: skip
 
+    # 3. the bodies carried to the end of the step
+    stats[BAD_BODY] = _carry_to_end_of_step(
+        n, static, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position, orientation,
+        linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
+        external_force, drag, pf_start, pf_arm, pf_force,
+    )  # fmt: skip
+    for k in range(kept):
+        for d in range(3):
+            impulse[sel[k], d] = lam[k, d] + rest[k, d]
+    return stats, resolved
+
+
+@njit
+def _impact_islands(n, body_a, body_b, static, rewind):
+    """The contacts of the islands that hold a stepped-back body: ``resolved`` (c,) bool,
+    their rows ``sel`` (k,) int64 island by island, and each island's first row in ``sel``
+    (``sub_start`` (islands + 1,) int64)."""
+    c = body_a.shape[0]
+    body_island, order, island_start = find_islands(n, body_a, body_b, static)
+    islands = island_start.shape[0] - 1
+    island_time = np.zeros(islands)
+    for i in range(n):
+        if body_island[i] >= 0:
+            island_time[body_island[i]] = max(island_time[body_island[i]], rewind[i])
+    # keep the contacts of islands with a stepped-back body, island by island
+    keep = np.zeros(c, np.bool_)
+    starts = [0]
+    kept = 0
+    for isl in range(islands):
+        if island_time[isl] <= 0.0:
+            continue
+        for idx in range(island_start[isl], island_start[isl + 1]):
+            keep[order[idx]] = True
+        kept += island_start[isl + 1] - island_start[isl]
+        starts.append(kept)
+    sel = np.empty(kept, np.int64)
+    m = 0
+    for isl in range(islands):
+        if island_time[isl] > 0.0:
+            for idx in range(island_start[isl], island_start[isl + 1]):
+                sel[m] = order[idx]
+                m += 1
+    return keep, sel, np.array(starts, np.int64)
+
+
+@njit
+def _accelerations(
+    n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, inverse_inertia, external_force, drag, pf_start, pf_arm, pf_force,
+):  # fmt: skip
+    """Each body's linear and angular acceleration over the step (n, 3), for the bounce
+    thresholds and the rest of the step."""
+    acceleration = np.zeros((n, 3))
+    alpha = np.zeros((n, 3))
+    for i in range(n):
+        if static[i]:
+            continue
+        F, T = body_forces(
+            i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
+            inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
+        )  # fmt: skip
+        Ii = inverse_inertia[i]
+        for a in range(3):
+            acceleration[i, a] = F[a] * inverse_mass[i]
+            alpha[i, a] = Ii[a, 0] * T[0] + Ii[a, 1] * T[1] + Ii[a, 2] * T[2]
+    return acceleration, alpha
+
+
+@njit
+def _collision_terms(
+    settings, sel, sub_start, sa, sb, depths, normals, arm_a, arm_b, v, w, acceleration, slop,
+    restitution, friction,
+):  # fmt: skip
+    """The rows' terms of the collision at the time of impact: ``bias``, ``bounce``, ``mu``
+    and ``tolerance`` (k,) of the contacts ``sel``. A contact bounces when it approaches
+    faster than the step's forces could make it; an island without a bounce only stops its
+    approach, which the resting solve after it does too, so it is left out (bias inf)."""
+    dt = settings[cs.DT]
+    kept = sel.shape[0]
+    bias = np.empty(kept)
+    bounce = np.zeros(kept)
+    mu = np.empty(kept)
+    tolerance = np.empty(kept)
+    fastest = 0.0
+    for k in range(kept):
+        a, b = sa[k], sb[k]
+        u = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w)
+        fastest = max(fastest, abs(u))
+        du = 0.0
+        for i in range(3):
+            du += normals[k, i] * dt * (acceleration[a, i] - acceleration[b, i])
+        threshold = 2.0 * abs(du) + settings[cs.BOUNCE_SPEED] * slop[k] / dt
+        if u < -threshold:
+            bounce[k] = combined_restitution(restitution, a, b)
+        # a contact not touching yet (beyond round-off: within the slop) takes no part in the
+        # collision
+        bias[k] = 0.0 if depths[sel[k]] >= -slop[k] else np.inf
+        mu[k] = combined_friction(friction, a, b)
+    for isl in range(sub_start.shape[0] - 1):
+        s, e = sub_start[isl], sub_start[isl + 1]
+        rebound = False
+        for k in range(s, e):
+            rebound |= bounce[k] > 0.0
+        for k in range(s, e):
+            tolerance[k] = IMPACT_TOLERANCE * fastest
+            if not rebound:
+                bias[k] = np.inf  # the collision only stops the approach: phase 2 does that
+    return bias, bounce, mu, tolerance
+
+
+@njit
+def _carry_to_end_of_step(
+    n, static, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position, orientation,
+    linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
+    external_force, drag, pf_start, pf_arm, pf_force,
+):  # fmt: skip
+    """Write the islands' momenta and move their stepped-back bodies to the end of the step;
+    returns the first body whose momenta are not finite (-1: none).
+
+    Momenta are written where the collision happened: L = I w holds at the orientation of the
+    time of impact, and the motion over the rest of the step then keeps L (it turns the body,
+    not its angular momentum). A stepped-back body the resting solve did not push (``rest``
+    zero) flies on ballistically with the collision's velocities ``v1``, ``w1`` (its forces act
+    over the time after the collision); one it pushed moves with the velocities ``v``, ``w``
+    of that solve, which hold the forces' share already."""
     pushed = np.zeros(n, np.bool_)
     touched = np.zeros(n, np.bool_)
-    for k in range(kept):
+    for k in range(sa.shape[0]):
         for i in (sa[k], sb[k]):
             if static[i]:
                 continue
             touched[i] = True
             if rest[k, 0] != 0.0 or rest[k, 1] != 0.0 or rest[k, 2] != 0.0:
                 pushed[i] = True
-    # Momenta are written where the collision happened: L = I w holds at the orientation of
-    # the time of impact, and the motion over the rest of the step then keeps L (it turns the
-    # body, not its angular momentum). A stepped-back body the resting solve did not push flies
-    # on ballistically (its forces act over t after the collision); one it pushed moves with
-    # the velocities of that solve, which hold the forces' share already.
     flying = np.zeros(n, np.bool_)
     for i in range(n):
         if rewind[i] > 0.0 and touched[i] and not pushed[i]:
@@ -286,7 +347,7 @@ def resolve_impacts(
             for a in range(3):
                 v[i, a] = v1[i, a]
                 w[i, a] = w1[i, a]
-    stats[BAD_BODY] = write_momenta(
+    bad = write_momenta(
         np.flatnonzero(touched), orientation, inertia_body, inverse_mass, v, w,
         linear_momentum, angular_momentum,
     )  # fmt: skip
@@ -298,7 +359,7 @@ def resolve_impacts(
         one = np.array([i])
         if flying[i]:
             move_ballistic(one, t, v, w, acceleration, position, orientation)
-            F, T = body_forces(
+            _, T = body_forces(
                 i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
                 inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
             )  # fmt: skip
@@ -307,7 +368,4 @@ def resolve_impacts(
                 angular_momentum[i, a] += t * T[a]
         else:
             move_ballistic(one, t, v, w, still, position, orientation)
-    for k in range(kept):
-        for d in range(3):
-            impulse[sel[k], d] = lam[k, d] + rest[k, d]
-    return stats, resolved
+    return bad

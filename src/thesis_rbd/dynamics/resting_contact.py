@@ -107,8 +107,6 @@ def solve_contacts(
         Out: the counters of ``contact_stats.STATS``; ``stats[BAD_BODY]`` is the first body
         whose new state is not finite (-1 if none).
     """
-    dt = settings[cs.DT]
-    rate = settings[cs.BIAS_RATE]
     c = contact_count
     body_a, body_b, points, normals, depths, _, features = contact_views(
         contact_ints, contact_floats, c
@@ -117,8 +115,60 @@ def solve_contacts(
     stats[:] = 0
     stats[BAD_BODY] = -1
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
+    v0, w0, v, w, inverse_inertia = _velocities_before_and_after_forces(
+        n, static, body_a, body_b, orientation, linear_momentum, angular_momentum,
+        inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+        settings[cs.DT],
+    )  # fmt: skip
 
-    # velocities before (v0) and after (v*) the step's forces
+    # islands; contacts re-ordered so that each island is one slice
+    _, order, island_start = find_islands(n, body_a, body_b, static)
+    order = order_from_the_top(n, body_a, body_b, static, order, island_start)
+    stats[ISLANDS] = island_start.shape[0] - 1
+    sa = body_a[order]
+    sb = body_b[order]
+    arm_a, arm_b = contact_arms(points, position, order, sa, sb)
+    sorted_normals = normals[order]
+    basis = contact_basis(sorted_normals)
+    slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
+    bias, bounce, push, mu, tolerance = _contact_terms(
+        settings, static, order, sa, sb, depths, sorted_normals, arm_a, arm_b, v0, w0, v, w,
+        slop, restitution, friction,
+    )  # fmt: skip
+    keys, sorted_features, local, lam = _warm_start(
+        settings, order, sa, sb, features, arm_a, basis, slop, orientation, old_keys, old_values
+    )
+
+    rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
+    # a moving island is solved to a fraction of its motion before the forces, one at rest to
+    # the slop's tolerance (contact_settings)
+    relaxed = island_tolerances(
+        island_start, sa, sb, arm_a, arm_b, v0, w0, tolerance, settings[cs.RELATIVE_TOLERANCE]
+    )
+    solve_islands(
+        settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
+        relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
+    )  # fmt: skip
+    stats[SWEEPS] += correct_positions(
+        settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
+        orientation,
+    )  # fmt: skip
+    stats[BAD_BODY] = _move_the_bodies_acted_on(
+        static, sa, sb, lam, v, w, position, orientation, inertia_body, inverse_mass,
+        linear_momentum, angular_momentum, solved,
+    )  # fmt: skip
+    _remember_impulses(
+        order, basis, lam, keys, sorted_features, local, impulse, new_keys, new_values
+    )
+
+
+@njit
+def _velocities_before_and_after_forces(
+    n, static, body_a, body_b, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, dt,
+):  # fmt: skip
+    """Body velocities before (v0, w0) and after (v, w) the step's forces, each (n, 3) (the
+    forces act on the bodies in contact only), and the world inverse inertias (n, 3, 3)."""
     v0, w0, inverse_inertia = body_velocities(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body,
@@ -126,7 +176,7 @@ def solve_contacts(
     v = v0.copy()
     w = w0.copy()
     involved = np.zeros(n, np.bool_)
-    for k in range(c):
+    for k in range(body_a.shape[0]):
         involved[body_a[k]] = not static[body_a[k]]
         involved[body_b[k]] = not static[body_b[k]]
     for i in range(n):
@@ -140,18 +190,20 @@ def solve_contacts(
         for a in range(3):
             v[i, a] += dt * F[a] * inverse_mass[i]
             w[i, a] += dt * (Ii[a, 0] * T[0] + Ii[a, 1] * T[1] + Ii[a, 2] * T[2])
+    return v0, w0, v, w, inverse_inertia
 
-    # islands; contacts re-ordered so that each island is one slice
-    _, order, island_start = find_islands(n, body_a, body_b, static)
-    order = order_from_the_top(n, body_a, body_b, static, order, island_start)
-    stats[ISLANDS] = island_start.shape[0] - 1
-    sa = body_a[order]
-    sb = body_b[order]
-    arm_a, arm_b = contact_arms(points, position, order, sa, sb)
-    sorted_normals = normals[order]
-    basis = contact_basis(sorted_normals)
-    slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
 
+@njit
+def _contact_terms(
+    settings, static, order, sa, sb, depths, normals, arm_a, arm_b, v0, w0, v, w, slop,
+    restitution, friction,
+):  # fmt: skip
+    """Each contact's row terms, in island order: ``bias`` (the velocity its normal row aims
+    for), ``bounce`` (restitution), ``push`` (the pseudo-velocity that removes penetration
+    beyond the slop at rest, -inf: none), ``mu`` and ``tolerance``, each (c,)."""
+    dt = settings[cs.DT]
+    rate = settings[cs.BIAS_RATE]
+    c = order.shape[0]
     bias = np.empty(c)
     bounce = np.zeros(c)
     push = np.full(c, -np.inf)
@@ -160,8 +212,8 @@ def solve_contacts(
     for k in range(c):
         a, b = sa[k], sb[k]
         depth = depths[order[k]]
-        u_before = normal_velocity(k, a, b, sorted_normals, arm_a, arm_b, v0, w0)
-        u_forced = normal_velocity(k, a, b, sorted_normals, arm_a, arm_b, v, w)
+        u_before = normal_velocity(k, a, b, normals, arm_a, arm_b, v0, w0)
+        u_forced = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w)
         rest_speed = settings[cs.BOUNCE_SPEED] * slop[k] / dt
         relative = 0.0
         for i in range(3):
@@ -187,8 +239,17 @@ def solve_contacts(
             push[k] = rate * (depth - slop[k]) / dt
         mu[k] = combined_friction(friction, a, b)
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
+    return bias, bounce, push, mu, tolerance
 
-    # warm start from the previous step's matching contacts
+
+@njit
+def _warm_start(
+    settings, order, sa, sb, features, arm_a, basis, slop, orientation, old_keys, old_values
+):  # fmt: skip
+    """The contacts' pair keys and features (c,), their points in body a's frame (c, 3), and
+    the impulses (c, 3) in their (n, t1, t2) frames that their predecessors in ``old_keys``,
+    ``old_values`` ended the last step with (zero where none)."""
+    c = order.shape[0]
     keys = pair_keys(sa, sb)
     sorted_features = features[order]
     local = np.empty((c, 3))
@@ -205,40 +266,41 @@ def solve_contacts(
         for d in range(3):
             lam[k, d] = basis[k, d, 0] * warm[k, 0] + basis[k, d, 1] * warm[k, 1]
             lam[k, d] += basis[k, d, 2] * warm[k, 2]
+    return keys, sorted_features, local, lam
 
-    rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
-    # a moving island is solved to a fraction of its motion before the forces, one at rest to
-    # the slop's tolerance (contact_settings)
-    relaxed = island_tolerances(
-        island_start, sa, sb, arm_a, arm_b, v0, w0, tolerance, settings[cs.RELATIVE_TOLERANCE]
-    )
-    solve_islands(
-        settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
-    )  # fmt: skip
-    stats[SWEEPS] += correct_positions(
-        settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
-        orientation,
-    )  # fmt: skip
 
-    # the bodies an impulse acted on move with v+; the others keep their state untouched
-    hit = np.zeros(n, np.bool_)
-    for k in range(c):
+@njit
+def _move_the_bodies_acted_on(
+    static, sa, sb, lam, v, w, position, orientation, inertia_body, inverse_mass,
+    linear_momentum, angular_momentum, solved,
+):  # fmt: skip
+    """The bodies an impulse acted on take v+ (marked in ``solved``); the others keep their
+    state untouched. Returns the first body whose new state is not finite (-1: none)."""
+    hit = np.zeros(v.shape[0], np.bool_)
+    for k in range(sa.shape[0]):
         if lam[k, 0] != 0.0 or lam[k, 1] != 0.0 or lam[k, 2] != 0.0:
             hit[sa[k]] = not static[sa[k]]
             hit[sb[k]] = not static[sb[k]]
     moved = np.flatnonzero(hit)
-    stats[BAD_BODY] = write_momenta(
+    bad = write_momenta(
         moved, orientation, inertia_body, inverse_mass, v, w, linear_momentum, angular_momentum
     )
     for i in moved:
         solved[i] = True
-        if stats[BAD_BODY] < 0 and not math.isfinite(
+        if bad < 0 and not math.isfinite(
             position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
         ):
-            stats[BAD_BODY] = i
+            bad = i
+    return bad
 
-    # impulses back in the caller's order; the world vectors are the next warm start
+
+@njit
+def _remember_impulses(
+    order, basis, lam, keys, sorted_features, local, impulse, new_keys, new_values
+):  # fmt: skip
+    """The impulses back in the caller's order (``impulse`` (c, 3)), and as world vectors,
+    sorted by pair key, the next step's warm start (``new_keys``, ``new_values``)."""
+    c = order.shape[0]
     world_impulse = np.empty((c, 3))
     for k in range(c):
         for a in range(3):
