@@ -33,8 +33,6 @@ __all__ = ["NARROW_PHASES", "CollisionPipeline"]
 # "mesh": the OBBTree for every pair
 NARROW_PHASES = ("auto", "mesh")
 
-_NO_BODIES = np.zeros(0, np.int64)
-_NO_BODIES.flags.writeable = False
 # The most samples the tunnelling sweep takes along one body's step: spacings of half its
 # thickness up to a travel of 2048 thicknesses, longer spacings beyond (a body moved by a
 # huge force must not make the step's work unbounded).
@@ -196,13 +194,16 @@ class CollisionPipeline:
             if known < len(lower):
                 self.sap.add(lower[known:], upper[known:])
             self.sap.update(lower, upper, check=False)  # kernel bounds: finite, lo <= hi
-            pairs = self.sap.pairs
-            if len(pairs):  # (most refits of a sparse scene find none: no array work then)
+            # writable arrays always, whatever the sweep-and-prune hands over (its pairs are
+            # read-only): the step kernel is compiled for one kind of each argument
+            pairs = np.zeros((0, 2), np.int64)
+            if len(self.sap.pairs):  # (most refits of a sparse scene find none)
+                pairs = self.sap.pairs
                 i, j = pairs[:, 0], pairs[:, 1]
                 may, static = self._may_pair, self._static
                 pairs = pairs[may[i] & may[j] & ~(static[i] & static[j])]
             self.fat_pairs = pairs
-            self.pair_members = np.unique(pairs) if len(pairs) else _NO_BODIES
+            self.pair_members = np.unique(pairs) if len(pairs) else np.zeros(0, np.int64)
             self._candidates = np.empty_like(pairs)
         count = 0
         if len(self.fat_pairs):
