@@ -68,7 +68,8 @@ def query_workloads(package) -> dict:
     from validation.bench_queries import RAY_COUNT, random_poses
     from validation.tori import tori_mesh, tori_poses
 
-    tree = package.OBBTree(tori_mesh())
+    mesh = tori_mesh()
+    tree = package.OBBTree(package.TriangleMesh(mesh.vertices, mesh.faces))
     identity, poses, cloud = np.eye(4), tori_poses(), random_poses(10000, 4.0)
     torus = package.OBBTree(package.shapes.torus(1.0, 0.3, 50, 20))
     rng = np.random.default_rng(0)

@@ -218,7 +218,7 @@ def resolve_impacts(
     return stats, resolved
 
 
-@njit
+@njit(inline="always")
 def _impact_islands(n, body_a, body_b, static, rewind):
     """The contacts of the islands that hold a stepped-back body: ``resolved`` (c,) bool,
     their rows ``sel`` (k,) int64 island by island, and each island's first row in ``sel``
@@ -251,7 +251,7 @@ def _impact_islands(n, body_a, body_b, static, rewind):
     return keep, sel, np.array(starts, np.int64)
 
 
-@njit
+@njit(inline="always")
 def _accelerations(
     n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, inverse_inertia, external_force, drag, pf_start, pf_arm, pf_force,
@@ -274,7 +274,7 @@ def _accelerations(
     return acceleration, alpha
 
 
-@njit
+@njit(inline="always")
 def _collision_terms(
     settings, sel, sub_start, sa, sb, depths, normals, arm_a, arm_b, v, w, acceleration, slop,
     restitution, friction,
@@ -316,7 +316,7 @@ def _collision_terms(
     return bias, bounce, mu, tolerance
 
 
-@njit
+@njit(inline="always")
 def _carry_to_end_of_step(
     n, static, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position, orientation,
     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,

@@ -162,7 +162,7 @@ def solve_contacts(
     )
 
 
-@njit
+@njit(inline="always")
 def _velocities_before_and_after_forces(
     n, static, body_a, body_b, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, dt,
@@ -193,7 +193,7 @@ def _velocities_before_and_after_forces(
     return v0, w0, v, w, inverse_inertia
 
 
-@njit
+@njit(inline="always")
 def _contact_terms(
     settings, static, order, sa, sb, depths, normals, arm_a, arm_b, v0, w0, v, w, slop,
     restitution, friction,
@@ -242,7 +242,7 @@ def _contact_terms(
     return bias, bounce, push, mu, tolerance
 
 
-@njit
+@njit(inline="always")
 def _warm_start(
     settings, order, sa, sb, features, arm_a, basis, slop, orientation, old_keys, old_values
 ):  # fmt: skip
@@ -269,7 +269,7 @@ def _warm_start(
     return keys, sorted_features, local, lam
 
 
-@njit
+@njit(inline="always")
 def _move_the_bodies_acted_on(
     static, sa, sb, lam, v, w, position, orientation, inertia_body, inverse_mass,
     linear_momentum, angular_momentum, solved,
@@ -294,7 +294,7 @@ def _move_the_bodies_acted_on(
     return bad
 
 
-@njit
+@njit(inline="always")
 def _remember_impulses(
     order, basis, lam, keys, sorted_features, local, impulse, new_keys, new_values
 ):  # fmt: skip

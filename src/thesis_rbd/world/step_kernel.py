@@ -162,6 +162,16 @@ def run_steps(
     stop, bad = FINISHED, -1
     done = 0
     stage = first
+    # the groups unpacked once (numba compiles out what a None group holds)
+    if contact_group is not None:
+        settings, polygon, stats = contact_group
+    if detection_group is not None:
+        (
+            size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half,
+            speculative, reach, tight, candidates,
+        ) = detection_group  # fmt: skip
+    if convex_group is not None:
+        hull_of_body, hull_arrays, longest_loop, query_scratch, com_local = convex_group
     while done < steps:
         start = cycle_count()
         if stage == FORCES:
@@ -179,7 +189,6 @@ def run_steps(
                     break
                 calls[FORCES] += 1  # gravity alone: already in external_force
         if stage <= CONTACTS and contact_group is not None:
-            settings, polygon, stats = contact_group
             if planned[CONTACTS] and awake and contacts[2] > 0:
                 c = contacts[2]
                 impulses = np.empty((c, 3))
@@ -209,10 +218,6 @@ def run_steps(
                 stop = INTEGRATE
                 break
         if detection_group is not None:
-            (
-                size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half,
-                speculative, reach, tight, candidates,
-            ) = detection_group  # fmt: skip
             if stage <= BOUNDS and planned[BOUNDS] and awake:
                 refit, fast_count, slowest = update_fat_bounds(
                     count, refit_all, frozen, size, thickness, position, start_position,
@@ -249,7 +254,6 @@ def run_steps(
                     if any_asleep:  # a touched island wakes: Python's
                         stop = NARROW_PHASE
                         break
-                    hull_of_body, hull_arrays, longest_loop, query_scratch, com_local = convex_group
                     pairs = candidates[:candidate_count]
                     ints = np.empty(OUTPUT_INTS * candidate_count, np.int64)
                     floats = np.empty(OUTPUT_FLOATS * candidate_count)

@@ -1,10 +1,11 @@
 """What the stages of a world step hand each other, and each step the next: one value.
 
-A stage takes the ``StepState`` and returns it with the fields it produced replaced
-(``dataclasses.replace``); the step kernel takes its fields as arguments and the world builds
-the next value from what it returns. Nothing a stage needs is stashed on another object, so
-the value at the start of a step is all a failed step must put back (with the body state the
-kernel saved).
+A stage that runs in Python takes the ``StepState`` and returns it with the fields it produced
+replaced (``dataclasses.replace``); the step kernel takes its fields as arguments, and the
+world writes what the kernel hands back into the state (in place: a new value per kernel call
+would cost a one-body step a third more). Nothing a stage needs is stashed on another object,
+so a copy of the state at the start of a step is all a failed step must put back (with the
+body state the kernel saved); the world makes that copy when a step stops mid-way for Python.
 
 The arrays in it are never written after they are made, except the per-step scratch the
 stages fill in place (``solved``, ``start_position``, ``start_orientation``, ``fast``), which

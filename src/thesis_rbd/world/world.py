@@ -416,7 +416,7 @@ class World(WorldReadout):
         """Find the contacts where the bodies are now, for the first step after the scene
         changed: the contact stage acts on contacts found at the end of the previous step."""
         self._contacts_stale = False
-        self._step_start = _StepStart(self._state, self.applied_forces)
+        self._step_start = _StepStart(dataclasses.replace(self._state), self.applied_forces)
         self._run(1, BOUNDS, detect_only=True)
 
     def _run_kernel(self, steps: int, first: int, detect_only: bool) -> tuple[int, int]:
@@ -442,14 +442,15 @@ class World(WorldReadout):
         )  # fmt: skip
         self._share_profile(perf_counter() - started, cycles, calls)
         self.steps_taken += done
+        # the kernel's hand-overs into the state in place: a dataclasses.replace per call
+        # would cost a one-body scene's step a third more (the value a failed step puts back
+        # is a copy, made below when a step stops mid-way)
         if calls[CONTACTS]:
-            s = dataclasses.replace(s, impact_count=0)
-        self._state = dataclasses.replace(
-            s, contacts=ContactSet(*contacts), acted=ContactSet(*acted[:3]),
-            impulses=acted[3], warm_keys=warm[0], warm_values=warm[1], convex_cache=cache,
-            candidate_count=candidate_count, fast_count=fast_count, slowest=slowest,
-            fat_changed=fat_changed, refit_all=refit_all, rewound=rewound,
-        )  # fmt: skip
+            s.impact_count = 0
+        s.contacts, s.acted, s.impulses = ContactSet(*contacts), ContactSet(*acted[:3]), acted[3]
+        s.warm_keys, s.warm_values, s.convex_cache = warm[0], warm[1], cache
+        s.candidate_count, s.fast_count, s.slowest = candidate_count, fast_count, slowest
+        s.fat_changed, s.refit_all, s.rewound = fat_changed, refit_all, rewound
         if stop != FINISHED and (done > 0 or first == FORCES):
             # a step began in this call and stopped: what a failure in it must put back
             start_contacts, start_acted, start_warm, start_cache = at_start

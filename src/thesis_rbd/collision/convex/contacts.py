@@ -436,7 +436,8 @@ def convex_contacts_for_pairs(
         float offset 7 c).
     """
     H = unpack_hulls(hull_arrays)
-    thicknesses = H.thicknesses
+    sizes, thicknesses = H.sizes, H.thicknesses
+    box_frames, box_features = H.box_frames, H.box_features
     cache_keys, cache_features, cache_axes = _cache_fields(
         cache_ints, cache_floats, cache_int_offset, cache_float_offset, cache_count
     )
@@ -477,22 +478,83 @@ def convex_contacts_for_pairs(
         _mesh_frame(j, position, orientation, center_of_mass_local, Rb, tb)
         _relative_frame(Ra, ta, Rb, tb, R, t)
         margin = max(speculative * min(thicknesses[ha], thicknesses[hb]), reach)
-        tolerance = _TIE * (H.sizes[ha] + H.sizes[hb])
-        boxes = H.box_features[ha, 0] >= 0 and H.box_features[hb, 0] >= 0
-        kind, fi, fj, separation, ux, uy, uz = _pair_axis(
-            H, ha, hb, R, t, key, boxes, cache_keys, cache_features, cache_axes, tolerance,
-            margin, query_scratch, M, shift,
-        )  # fmt: skip
+        tolerance = _TIE * (sizes[ha] + sizes[hb])
+        boxes = box_features[ha, 0] >= 0 and box_features[hb, 0] >= 0
+        if boxes:
+            kind, fi, fj, separation, ux, uy, uz = box_box_query(
+                box_frames, box_features, ha, hb, R, t, tolerance
+            )
+        elif query_scratch is None:  # (numba drops this branch or the next when compiling)
+            raise ValueError("query_scratch is None, but a pair's hulls are not both boxes")
+        else:
+            # last step's axis first (two boxes need no cache: their test is closed form)
+            cached_kind, cached_i, cached_j = 0, 0, 0
+            ax, ay, az = 0.0, 0.0, 0.0
+            slot = np.searchsorted(cache_keys, key)
+            if slot < cache_keys.shape[0] and cache_keys[slot] == key:
+                cached_kind = cache_features[slot, 0]
+                cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
+                ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
+            certified = False
+            if cached_kind == FACE_A or cached_kind == FACE_B:
+                # a resting pair: last step's face, if provably still the answer, needs no
+                # search; the cache's third entry is then the other hull's deepest vertex
+                certified, separation, ux, uy, uz, fj = certify_face_axis(
+                    H, ha, hb, R, t, cached_kind, cached_i, cached_j, tolerance, M, shift
+                )
+                kind, fi = cached_kind, cached_i
+            if not certified:
+                kind, fi, fj, separation, ux, uy, uz = _pair_query(
+                    H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin,
+                    query_scratch,
+                )  # fmt: skip
         new_features[q, 0], new_features[q, 1], new_features[q, 2] = kind, fi, fj
         new_axes[q, 0], new_axes[q, 1], new_axes[q, 2] = ux, uy, uz
         if separation > margin:
             continue
-        flat = _FLAT * (H.sizes[ha] + H.sizes[hb])
-        count, nx, ny, nz = _pair_manifold(
-            H, ha, hb, kind, fi, fj, separation, ux, uy, uz, boxes, R, t, margin, tolerance,
-            flat, reference, incident, points, tags, spare, spare_tags, labels, spare_labels,
-            depths, keep, Ra, ta, out_points, out_depths, out_features, c,
-        )  # fmt: skip
+        flat = _FLAT * (sizes[ha] + sizes[hb])
+        apart = separation > 0.0
+        count = 0
+        if kind == EDGES:
+            # an edge axis within a small angle of a face beside the edges (a face hanging
+            # over another's edge, nearly flat): the faces' clipped manifold, at the axis'
+            # exact normal and depth
+            face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
+            if face_kind:
+                count, _, _, _ = _face_manifold(
+                    H, ha, hb, face_kind, face, 0, R, t, margin, apart, tolerance, flat,
+                    reference, incident, points, tags, spare, spare_tags, labels,
+                    spare_labels, depths, keep, Ra, ta, out_points, out_depths, out_features, c,
+                )  # fmt: skip
+            if count == 0:
+                count = 1
+                gap2 = _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
+                if apart and gap2 > (margin + tolerance) ** 2:
+                    # apart along the edges' axis by at most the margin, but the segments
+                    # themselves are further apart (their lines pass close elsewhere): no
+                    # speculative contact
+                    count = 0
+                out_depths[c] = -separation
+                out_features[c] = feature_id(EDGES, fi, fj, 0)
+            # the normal runs from B towards A: against the axis
+            nx, ny, nz = -ux, -uy, -uz
+        else:
+            if boxes:
+                count, nx, ny, nz = box_face_contacts(
+                    box_frames, box_features, ha, hb, kind, fi, R, t, margin, apart,
+                    tolerance, flat, reference, incident, points, tags, spare, spare_tags,
+                    labels, spare_labels, depths, keep, Ra, ta, out_points, out_depths,
+                    out_features, c,
+                )  # fmt: skip
+            else:
+                count, nx, ny, nz = _face_manifold(
+                    H, ha, hb, kind, fi, fj, R, t, margin, apart, tolerance, flat, reference,
+                    incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
+                    keep, Ra, ta, out_points, out_depths, out_features, c,
+                )  # fmt: skip
+            # against A's outward face normal, along B's
+            if kind == FACE_A:
+                nx, ny, nz = -nx, -ny, -nz
         level = max(flat, speculative * min(thicknesses[ha], thicknesses[hb]))
         _finish_pair_contacts(
             i, j, c, count, separation, level, nx, ny, nz, Ra, body_a, body_b, out_normals,
@@ -506,96 +568,7 @@ def convex_contacts_for_pairs(
     return c
 
 
-@njit
-def _pair_axis(
-    H, ha, hb, R, t, key, boxes, cache_keys, cache_features, cache_axes, tolerance, margin,
-    query_scratch, M, shift,
-):  # fmt: skip
-    """The pair's axis of least penetration or separation, (kind, i, j, separation, ux, uy,
-    uz) as ``sat_query`` gives it: two boxes in closed form; other hulls from last step's
-    axis (``cache_*``), a face it proves still the answer needing no search."""
-    if boxes:
-        return box_box_query(H.box_frames, H.box_features, ha, hb, R, t, tolerance)
-    if query_scratch is None:  # (numba drops this branch or the next when compiling)
-        raise ValueError("query_scratch is None, but a pair's hulls are not both boxes")
-    else:
-        # last step's axis first (two boxes need no cache: their test is closed form)
-        cached_kind, cached_i, cached_j = 0, 0, 0
-        ax, ay, az = 0.0, 0.0, 0.0
-        slot = np.searchsorted(cache_keys, key)
-        if slot < cache_keys.shape[0] and cache_keys[slot] == key:
-            cached_kind = cache_features[slot, 0]
-            cached_i, cached_j = cache_features[slot, 1], cache_features[slot, 2]
-            ax, ay, az = cache_axes[slot, 0], cache_axes[slot, 1], cache_axes[slot, 2]
-        if cached_kind == FACE_A or cached_kind == FACE_B:
-            # a resting pair: last step's face, if provably still the answer, needs no
-            # search; the cache's third entry is then the other hull's deepest vertex
-            certified, separation, ux, uy, uz, fj = certify_face_axis(
-                H, ha, hb, R, t, cached_kind, cached_i, cached_j, tolerance, M, shift
-            )
-            if certified:
-                return cached_kind, cached_i, fj, separation, ux, uy, uz
-        return _pair_query(
-            H, ha, hb, R, t, cached_kind, cached_i, cached_j, ax, ay, az, margin,
-            query_scratch,
-        )  # fmt: skip
-
-
-@njit
-def _pair_manifold(
-    H, ha, hb, kind, fi, fj, separation, ux, uy, uz, boxes, R, t, margin, tolerance, flat,
-    reference, incident, points, tags, spare, spare_tags, labels, spare_labels, depths, keep,
-    Ra, ta, out_points, out_depths, out_features, c,
-):  # fmt: skip
-    """The pair's contacts from row ``c`` of the outputs: their count and the normal (nx,
-    ny, nz) from B towards A in A's frame. A face axis clips the incident face against the
-    reference face; an edge axis gives one contact, or the faces' manifold where a face beside
-    the edges lies within a small angle of the axis."""
-    apart = separation > 0.0
-    count = 0
-    if kind == EDGES:
-        # an edge axis within a small angle of a face beside the edges (a face hanging
-        # over another's edge, nearly flat): the faces' clipped manifold, at the axis'
-        # exact normal and depth
-        face_kind, face = _face_beside_edges(H, ha, hb, fi, fj, R, ux, uy, uz)
-        if face_kind:
-            count, _, _, _ = _face_manifold(
-                H, ha, hb, face_kind, face, 0, R, t, margin, apart, tolerance, flat,
-                reference, incident, points, tags, spare, spare_tags, labels,
-                spare_labels, depths, keep, Ra, ta, out_points, out_depths, out_features, c,
-            )  # fmt: skip
-        if count == 0:
-            count = 1
-            gap2 = _edge_contact(H, ha, hb, fi, fj, R, t, Ra, ta, out_points, c)
-            if apart and gap2 > (margin + tolerance) ** 2:
-                # apart along the edges' axis by at most the margin, but the segments
-                # themselves are further apart (their lines pass close elsewhere): no
-                # speculative contact
-                count = 0
-            out_depths[c] = -separation
-            out_features[c] = feature_id(EDGES, fi, fj, 0)
-        # the normal runs from B towards A: against the axis
-        return count, -ux, -uy, -uz
-    if boxes:
-        count, nx, ny, nz = box_face_contacts(
-            H.box_frames, H.box_features, ha, hb, kind, fi, R, t, margin, apart,
-            tolerance, flat, reference, incident, points, tags, spare, spare_tags,
-            labels, spare_labels, depths, keep, Ra, ta, out_points, out_depths,
-            out_features, c,
-        )  # fmt: skip
-    else:
-        count, nx, ny, nz = _face_manifold(
-            H, ha, hb, kind, fi, fj, R, t, margin, apart, tolerance, flat, reference,
-            incident, points, tags, spare, spare_tags, labels, spare_labels, depths,
-            keep, Ra, ta, out_points, out_depths, out_features, c,
-        )  # fmt: skip
-    # against A's outward face normal, along B's
-    if kind == FACE_A:
-        nx, ny, nz = -nx, -ny, -nz
-    return count, nx, ny, nz
-
-
-@njit(allocates=False)
+@njit(allocates=False, inline="always")
 def _finish_pair_contacts(
     i, j, c, count, separation, level, nx, ny, nz, Ra, body_a, body_b, out_normals, out_depths
 ):  # fmt: skip
@@ -621,7 +594,7 @@ def _finish_pair_contacts(
         out_depths[r] = -separation if above <= level else -separation - above
 
 
-@njit
+@njit(inline="always")
 def _write_output(
     c, p, body_a, body_b, out_points, out_normals, out_depths, out_features, new_keys,
     new_features, new_axes, ints, floats,

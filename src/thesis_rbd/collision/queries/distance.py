@@ -172,65 +172,6 @@ def _children(P, L, x):
     return c0, c1, 2
 
 
-@njit(allocates=False)
-def _pair_bound(x, y, Pa, La, Pb, Lb, Mab, tab, Mba, tba, best, carried, g, c):
-    """A lower bound on the distance between node or triangle code x of A and y of B
-    (triangle-box, or box-box), stopping early at ``best``; B's box carried into A's frame
-    (``g``, ``c``) is reused while ``carried`` is the same node y. Returns the bound and the
-    carried box (carried, g, c)."""
-    if x >= 0 and y >= 0:
-        if y != carried:
-            g, c = carry_box(y, Pb, Lb, Mab, tab)
-            carried = y
-        R, T = box_frame(x, Pa, La, g, c)
-        hx = half_extent(Pa, La, x)
-        return box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best), carried, g, c
-    if x < 0:
-        v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
-        return triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best), carried, g, c
-    v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
-    return triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best), carried, g, c
-
-
-@njit(allocates=False)
-def _heap_push(heap, size, bound, order, x, y):
-    """Push the pair (x, y) with its bound and insertion order onto the binary heap in the
-    first ``size`` rows of ``heap`` (which has room for it)."""
-    i = size
-    heap[i, 0] = bound
-    heap[i, 1] = order
-    heap[i, 2] = x
-    heap[i, 3] = y
-    while i > 0 and _before(heap, i, (i - 1) // 2):
-        parent = (i - 1) // 2
-        for j in range(4):
-            heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
-        i = parent
-
-
-@njit(allocates=False)
-def _heap_pop(heap, size):
-    """Remove the first pair of the binary heap in the first ``size`` rows of ``heap`` and
-    return it (x, y)."""
-    x = int(heap[0, 2])
-    y = int(heap[0, 3])
-    size -= 1
-    for j in range(4):
-        heap[0, j] = heap[size, j]
-    i = 0
-    while True:
-        first = i
-        for child_row in (2 * i + 1, 2 * i + 2):
-            if child_row < size and _before(heap, child_row, first):
-                first = child_row
-        if first == i:
-            break
-        for j in range(4):
-            heap[i, j], heap[first, j] = heap[first, j], heap[i, j]
-        i = first
-    return x, y
-
-
 @njit(separate=True)
 def mesh_distance(Pa, Pb, Mab, tab):
     """Least distance between two packed trees, B placed in A's mesh frame by (Mab, tab).
@@ -310,9 +251,19 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 if x < 0 and y < 0:
                     continue
                 bound_tests += 1
-                bound, carried, g, c = _pair_bound(
-                    x, y, Pa, La, Pb, Lb, Mab, tab, Mba, tba, best, carried, g, c
-                )
+                if x >= 0 and y >= 0:
+                    if y != carried:
+                        g, c = carry_box(y, Pb, Lb, Mab, tab)
+                        carried = y
+                    R, T = box_frame(x, Pa, La, g, c)
+                    hx = half_extent(Pa, La, x)
+                    bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
+                elif x < 0:
+                    v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
+                else:
+                    v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
+                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
                 if k == 0:
                     b0 = bound
                 else:
@@ -327,16 +278,39 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 if bound >= best or (dive and k == nearest):
                     continue
                 order += 1
-                _heap_push(heap, size, bound, order, x0 if k == 0 else x1, y0 if k == 0 else y1)
+                i = size
+                heap[i, 0] = bound
+                heap[i, 1] = order
+                heap[i, 2] = x0 if k == 0 else x1
+                heap[i, 3] = y0 if k == 0 else y1
                 size += 1
+                while i > 0 and _before(heap, i, (i - 1) // 2):
+                    parent = (i - 1) // 2
+                    for j in range(4):
+                        heap[i, j], heap[parent, j] = heap[parent, j], heap[i, j]
+                    i = parent
             if dive:
                 x = x0 if nearest == 0 else x1
                 y = y0 if nearest == 0 else y1
             else:
                 if size == 0 or heap[0, 0] >= best:
                     break
-                x, y = _heap_pop(heap, size)
+                x = int(heap[0, 2])
+                y = int(heap[0, 3])
                 size -= 1
+                for j in range(4):
+                    heap[0, j] = heap[size, j]
+                i = 0
+                while True:
+                    first = i
+                    for child_row in (2 * i + 1, 2 * i + 2):
+                        if child_row < size and _before(heap, child_row, first):
+                            first = child_row
+                    if first == i:
+                        break
+                    for j in range(4):
+                        heap[i, j], heap[first, j] = heap[first, j], heap[i, j]
+                    i = first
             # Split the larger node (a node facing a triangle is split).
             split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
             if split_b:
