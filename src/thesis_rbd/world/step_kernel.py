@@ -34,12 +34,7 @@ from thesis_rbd.collision.broad_phase.bounds import (
     tight_bounds,
     update_fat_bounds,
 )
-from thesis_rbd.collision.contact_set import FLOAT_WIDTH, INT_WIDTH
-from thesis_rbd.collision.convex.contacts import (
-    OUTPUT_FLOATS,
-    OUTPUT_INTS,
-    convex_contacts_for_pairs,
-)
+from thesis_rbd.collision.convex.contacts import find_convex_contacts
 from thesis_rbd.dynamics.bodies import copy_state
 from thesis_rbd.dynamics.contact_stats import BAD_BODY
 from thesis_rbd.dynamics.impacts import any_free_body
@@ -254,17 +249,10 @@ def run_steps(
                     if any_asleep:  # a touched island wakes: Python's
                         stop = NARROW_PHASE
                         break
-                    pairs = candidates[:candidate_count]
-                    ints = np.empty(OUTPUT_INTS * candidate_count, np.int64)
-                    floats = np.empty(OUTPUT_FLOATS * candidate_count)
-                    found = convex_contacts_for_pairs(
-                        pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position,
-                        orientation, com_local, cache[0], cache[1], cache[2], cache[3],
-                        cache[4], speculative, reach, ints, floats,
-                    )  # fmt: skip
-                    contacts = (ints, floats, found)
-                    cache = (
-                        ints, floats, INT_WIDTH * found, FLOAT_WIDTH * found, candidate_count
+                    contacts, cache = find_convex_contacts(
+                        candidates[:candidate_count], hull_of_body, hull_arrays, longest_loop,
+                        query_scratch, position, orientation, com_local, cache, speculative,
+                        reach,
                     )  # fmt: skip
                     start = _count_stage(NARROW_PHASE, start, cycles, calls)
             if detect_only:

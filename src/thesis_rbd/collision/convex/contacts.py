@@ -73,6 +73,7 @@ __all__ = [
     "convex_contacts_for_pairs",
     "empty_cache",
     "feature_id",
+    "find_convex_contacts",
     "query_scratch_for",
 ]
 
@@ -633,13 +634,31 @@ def convex_contacts(
     """``convex_contacts_for_pairs`` (same arguments, ``cache`` the tuple of its five cache
     arguments, as ``empty_cache`` makes it): the contacts as a ``ContactSet`` and the new
     cache, a tuple of the same form that points into the same output arrays."""
-    p = len(pairs)
-    ints, floats = np.empty(OUTPUT_INTS * p, np.int64), np.empty(OUTPUT_FLOATS * p)
+    contacts, cache = find_convex_contacts(
+        pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
+        center_of_mass_local, cache, speculative, reach,
+    )  # fmt: skip
+    return ContactSet(*contacts), cache
+
+
+@njit(inline="always")
+def find_convex_contacts(
+    pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
+    center_of_mass_local, cache, speculative, reach,
+):  # fmt: skip
+    """``convex_contacts_for_pairs`` into output arrays of its own: the contacts (ints,
+    floats, count), laid out as a ``ContactSet``'s, and the new coherence cache (its five
+    arguments, pointing into the same arrays), for the next call to take as ``cache``: the one
+    place the cache's bookkeeping is written, for the world's step and for Python callers."""
+    p = pairs.shape[0]
+    ints = np.empty(OUTPUT_INTS * p, np.int64)
+    floats = np.empty(OUTPUT_FLOATS * p)
     c = convex_contacts_for_pairs(
         pairs, hull_of_body, hull_arrays, longest_loop, query_scratch, position, orientation,
-        center_of_mass_local, *cache, speculative, reach, ints, floats,
+        center_of_mass_local, cache[0], cache[1], cache[2], cache[3], cache[4], speculative,
+        reach, ints, floats,
     )  # fmt: skip
-    return ContactSet(ints, floats, c), (ints, floats, INT_WIDTH * c, FLOAT_WIDTH * c, p)
+    return (ints, floats, c), (ints, floats, INT_WIDTH * c, FLOAT_WIDTH * c, p)
 
 
 @njit(allocates=False)
