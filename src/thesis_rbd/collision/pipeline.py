@@ -68,7 +68,9 @@ class CollisionPipeline:
     pair_members : (m,) int64
         The bodies of ``fat_pairs``.
     stats : dict
-        Counters of the last Python stage calls (candidate_pairs, bv_tests, tri_tests, ...).
+        Counters of the last narrow phase run in Python: ``convex_pairs``, and for mesh pairs
+        ``bv_tests``, ``tri_box_tests``, ``tri_tests`` (the candidate count is the step
+        state's).
     """
 
     def __init__(self, narrow_phase: str = "auto"):
@@ -212,7 +214,6 @@ class CollisionPipeline:
                 position, orientation, start_position, fast, self._thickness,
                 SPECULATIVE_FRACTION, self._reach, self.tight, frozen, self._candidates,
             )  # fmt: skip
-        self.stats["candidate_pairs"] = count
         return count
 
     def contacts(self, pairs, position, orientation, cache) -> tuple[ContactSet, tuple]:

@@ -328,7 +328,6 @@ class World(WorldReadout):
             "tunnelling": collides, "time_of_impact": toi, "impacts": toi, "sleep": sleeps,
         }  # fmt: skip
         self._planned = np.array([planned[name] for name in STAGE_NAMES])
-        self._responds, self._collides = responds, collides
         self._contacts_stale = responds
         self._replan_after_step = False
         # speculative contacts across the gap gravity closes in a step, twice over (a body
