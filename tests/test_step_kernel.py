@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
 from thesis_rbd.world.stage_names import STAGE_NAMES
+from thesis_rbd.world.stage_profile import StageProfile
 from thesis_rbd.world.step_kernel import FINISHED, FORCES
 
 DT = 1.0 / 240.0
@@ -209,14 +210,16 @@ def test_a_non_finite_step_leaves_the_world_as_it_was(sleeping):
 
 def test_without_a_cycle_counter_the_kernel_time_is_shared_by_calls():
     """Off x86-64 the kernel counts no cycles: each stage then gets its share of calls."""
-    world = resting_row(sleeping=False)
+    profile = StageProfile()
     cycles = np.zeros(len(STAGE_NAMES), np.int64)
     calls = np.zeros(len(STAGE_NAMES), np.int64)
     calls[STAGE_NAMES.index("contacts")], calls[STAGE_NAMES.index("integrate")] = 3, 1
-    world._share_profile(2.0, cycles, calls)
-    assert world.profile["contacts"] == {"calls": 3, "seconds": 1.5}
-    assert world.profile["integrate"] == {"calls": 1, "seconds": 0.5}
+    profile.add_kernel_call(2.0, cycles, calls)
+    assert profile.as_dict()["contacts"] == {"calls": 3, "seconds": 1.5}
+    assert profile.as_dict()["integrate"] == {"calls": 1, "seconds": 0.5}
     cycles[STAGE_NAMES.index("contacts")], cycles[STAGE_NAMES.index("integrate")] = 10, 30
-    world._share_profile(2.0, cycles, calls)
-    assert world.profile["contacts"]["seconds"] == pytest.approx(1.5 + 0.5)
-    assert world.profile["integrate"]["seconds"] == pytest.approx(0.5 + 1.5)
+    profile.add_kernel_call(2.0, cycles, calls)
+    assert profile.as_dict()["contacts"]["seconds"] == pytest.approx(1.5 + 0.5)
+    assert profile.as_dict()["integrate"]["seconds"] == pytest.approx(0.5 + 1.5)
+    profile.add_stage(STAGE_NAMES.index("sleep"), 0.25)
+    assert profile.as_dict()["sleep"] == {"calls": 1, "seconds": 0.25}

@@ -56,6 +56,7 @@ from thesis_rbd.dynamics.pgs import friction_polygon
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.world.readout import WorldReadout
 from thesis_rbd.world.stage_names import STAGE_NAMES
+from thesis_rbd.world.stage_profile import StageProfile
 from thesis_rbd.world.step_kernel import (
     BOUNDS,
     BROAD_PHASE,
@@ -184,7 +185,7 @@ class World(WorldReadout):
         self.steps_taken = 0
         self.bodies = BodyArrays()
         self.applied_forces = AppliedForces()
-        self.profile = {name: {"calls": 0, "seconds": 0.0} for name in STAGE_NAMES}
+        self._profile = StageProfile()
         self.contact_response = bool(contact_response)
         self._contact_settings = ContactSettings(
             solver=contact_solver,
@@ -305,6 +306,12 @@ class World(WorldReadout):
         """Names of the stages this scene needs, in pipeline order."""
         return [name for name, planned in zip(STAGE_NAMES, self._planned, strict=True) if planned]
 
+    @property
+    def profile(self) -> dict[str, dict]:
+        """Calls and seconds of each stage so far, ``{stage: {"calls": int, "seconds":
+        float}}`` in pipeline order (a new dict on each read)."""
+        return self._profile.as_dict()
+
     def _plan_stages(self) -> None:
         """Derive the stages from the scene (only the effects it calls for) and what the step
         kernel takes of the world; called whenever bodies, forces or settings change."""
@@ -424,6 +431,10 @@ class World(WorldReadout):
         s = self._state
         c, acted, pf = s.contacts, s.acted, s.point_forces
         cycles, calls = self._stage_cycles, self._stage_calls
+        handed_in = (
+            (c.ints, c.floats, c.count), (acted.ints, acted.floats, acted.count, s.impulses),
+            (s.warm_keys, s.warm_values), s.convex_cache,
+        )  # fmt: skip
         started = perf_counter()
         (
             done, self.time, stop, bad, contacts, acted, warm, cache, at_start,
@@ -434,12 +445,11 @@ class World(WorldReadout):
             self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
             pf.force, *self._saved, s.start_position, s.start_orientation, s.solved,
-            self._contact_group, self._detection_group, self._convex_group,
-            (c.ints, c.floats, c.count), (acted.ints, acted.floats, acted.count, s.impulses),
-            (s.warm_keys, s.warm_values), s.convex_cache, s.candidate_count, s.fast_count,
-            s.slowest, s.fat_changed, s.refit_all, s.rewound, cycles, calls,
+            self._contact_group, self._detection_group, self._convex_group, *handed_in,
+            s.candidate_count, s.fast_count, s.slowest, s.fat_changed, s.refit_all, s.rewound,
+            cycles, calls,
         )  # fmt: skip
-        self._share_profile(perf_counter() - started, cycles, calls)
+        self._profile.add_kernel_call(perf_counter() - started, cycles, calls)
         self.steps_taken += done
         # the kernel's hand-overs into the state in place: a dataclasses.replace per call
         # would cost a one-body scene's step a third more (the value a failed step puts back
@@ -451,8 +461,11 @@ class World(WorldReadout):
         s.candidate_count, s.fast_count, s.slowest = candidate_count, fast_count, slowest
         s.fat_changed, s.refit_all, s.rewound = fat_changed, refit_all, rewound
         if stop != FINISHED and (done > 0 or first == FORCES):
-            # a step began in this call and stopped: what a failure in it must put back
-            start_contacts, start_acted, start_warm, start_cache = at_start
+            # a step began in this call and stopped: what a failure in it must put back (the
+            # kernel hands back the hand-overs at its start when it began after the first)
+            start_contacts, start_acted, start_warm, start_cache = (
+                at_start if at_start is not None else handed_in
+            )
             self._step_start = _StepStart(
                 dataclasses.replace(
                     s, contacts=ContactSet(*start_contacts),
@@ -474,9 +487,7 @@ class World(WorldReadout):
             self._state = _STAGES_IN_PYTHON[stage](self, self._state)
         except _StepFailed as failure:
             self._fail(failure.body, name)
-        entry = self.profile[name]
-        entry["seconds"] += perf_counter() - started
-        entry["calls"] += 1
+        self._profile.add_stage(stage, perf_counter() - started)
 
     def _fail(self, body: int, stage: str) -> NoReturn:
         """Put the world back as it was before this step and raise the error naming the
@@ -489,19 +500,6 @@ class World(WorldReadout):
         self._state = start.state
         self._plan_stages()  # fat boxes refitted around the restored positions
         raise NonFiniteStateError(body, self.bodies.names[body], stage, self.steps_taken) from None
-
-    def _share_profile(self, seconds: float, cycles: np.ndarray, calls: np.ndarray) -> None:
-        """Share a ``run_steps`` call's wall time among the stages it ran, in proportion to
-        their cycles (to their calls where the target counts no cycles)."""
-        cycles, calls = cycles.tolist(), calls.tolist()
-        total = sum(cycles)
-        weights = cycles if total > 0 else calls
-        scale = seconds / (total if total > 0 else max(sum(calls), 1))
-        for name, count, weight in zip(STAGE_NAMES, calls, weights, strict=True):
-            if count:
-                entry = self.profile[name]
-                entry["calls"] += count
-                entry["seconds"] += scale * weight
 
     # ------------------------------------------------------------------ stages in Python
     def _gather_forces(self, s: StepState) -> StepState:
