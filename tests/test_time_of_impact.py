@@ -1,9 +1,9 @@
-"""Time of impact: the one-call bisection against a plain Python bisection.
+"""Time of impact: the one-call bisection against python-fcl.
 
-``python_bisection`` below moves a group back along its ballistic path and asks the
-detector's yes/no query at each halving, one call at a time; ``bisect_to_contact`` does the
-same in one kernel call. The Python search is the reference: the kernel must leave the same
-time and the same poses and velocities, to the bit, for convex pairs and mesh pairs alike.
+``bisect_to_contact`` moves a group back along its ballistic path and bisects on the
+detector's yes/no query. python-fcl, an independent intersection test, says whether the
+bodies touch where the search leaves them and were apart one resolution step further back;
+the poses and velocities left are those of the ballistic path at the time found.
 """
 
 import numpy as np
@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 
 import thesis_rbd as rbd
 from thesis_rbd.collision.touching import pairs_touch
+from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.world.time_of_impact import HALVINGS, bisect_to_contact, group_contacts
 from validation.fcl_adapter import fcl_collide, fcl_model, fcl_object
 
@@ -30,13 +31,15 @@ def scaled(mesh, size):
     return rbd.TriangleMesh(mesh.vertices * size, mesh.faces)
 
 
-def pose_back(T0, x0, v, w, acceleration, s):
+def pose_back(T0, x0, v, L, inverse_inertia_body, acceleration, s):
     """Mesh-to-world transform of a body whose transform is ``T0`` and centre of mass ``x0``
-    at the end of the step, moved back by s along its ballistic path: written out with
-    scipy's rotations, apart from the kernel's quaternion steps."""
+    at the end of the step, moved back by s along its ballistic path: the translation written
+    out here, the torque-free turn ``turn_freely``'s (checked against an ODE solution in
+    test_free_rotation.py), taken in one turn of -s from the end pose."""
     com_local = T0[:3, :3].T @ (x0 - T0[:3, 3])
     x = x0 - v * s + 0.5 * acceleration * s * s
-    R = (Rotation.from_rotvec(-w * s) * Rotation.from_matrix(T0[:3, :3])).as_matrix()
+    end = Rotation.from_matrix(T0[:3, :3]).as_quat()
+    R = Rotation.from_quat(turn_freely(end, L, inverse_inertia_body, -s)).as_matrix()
     T = np.eye(4)
     T[:3, :3], T[:3, 3] = R, x - R @ com_local
     return T
@@ -89,13 +92,19 @@ def test_the_kernel_finds_the_moment_of_first_contact(shape, size, speed, spin, 
     model = fcl_model(world.bodies.meshes[body])
     T0, x0 = world.transform(body), world.position(body)
 
+    # the world angular momentum of the spin w: R I_body R^T w
+    R0 = T0[:3, :3]
+    L = np.zeros_like(w)
+    L[body] = R0 @ bodies.full("inertia_body")[body] @ R0.T @ w[body]
+    Ii = bodies.full("inverse_inertia_body")
+
     def touch(s):
-        pose = pose_back(T0, x0, v[body], w[body], acceleration[body], s)
+        pose = pose_back(T0, x0, v[body], L[body], Ii[body], acceleration[body], s)
         return fcl_collide(floor, fcl_object(model, pose), max_contacts=1)[0]
 
     v_kernel = v.copy()
     t = bisect_to_contact(
-        np.array([body]), np.array([[0, body]]), v_kernel, w, acceleration,
+        np.array([body]), np.array([[0, body]]), v_kernel, L, Ii, acceleration,
         bodies.full("position"), bodies.full("orientation"), DT,
         bodies.full("center_of_mass_local"), detector.touch_inputs(world._state.convex_cache),
     )  # fmt: skip
@@ -104,7 +113,7 @@ def test_the_kernel_finds_the_moment_of_first_contact(shape, size, speed, spin, 
     assert touch(t)
     if t < DT:
         assert not touch(t + DT / 2**HALVINGS)
-    expected = pose_back(T0, x0, v[body], w[body], acceleration[body], t)
+    expected = pose_back(T0, x0, v[body], L[body], Ii[body], acceleration[body], t)
     np.testing.assert_allclose(world.transform(body), expected, rtol=0, atol=1e-12 * size)
     np.testing.assert_allclose(v_kernel[body], v[body] - acceleration[body] * t, rtol=1e-12)
 

@@ -157,7 +157,7 @@ def test_add_body_rejects_bad_input(kwargs, message):
         ({"dt": 0.0}, "dt"),
         ({"dt": np.nan}, "dt"),
         ({"gravity": (0, 0)}, "gravity"),
-        ({"integrator": "verlet"}, "unknown integrator"),
+        ({"integrator": "leapfrog"}, "unknown integrator"),
         ({"linear_drag": -1.0}, "drag"),
     ],
 )

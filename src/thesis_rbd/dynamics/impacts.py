@@ -358,7 +358,10 @@ def _carry_to_end_of_step(
             continue
         one = np.array([i])
         if flying[i]:
-            move_ballistic(one, t, v, w, acceleration, position, orientation)
+            move_ballistic(
+                one, t, v, angular_momentum, inverse_inertia_body, acceleration, position,
+                orientation,
+            )  # fmt: skip
             _, T = body_forces(
                 i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
                 inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
@@ -367,5 +370,7 @@ def _carry_to_end_of_step(
                 linear_momentum[i, a] = v[i, a] / inverse_mass[i]
                 angular_momentum[i, a] += t * T[a]
         else:
-            move_ballistic(one, t, v, w, still, position, orientation)
+            move_ballistic(
+                one, t, v, angular_momentum, inverse_inertia_body, still, position, orientation
+            )
     return bad

@@ -12,10 +12,23 @@ the same method on each body alone: one fused kernel walks the bodies and keeps 
 body in registers (tuples), allocating nothing. The quaternion is renormalised at the end of
 every step; a projection of O(error) size keeps each method's order.
 
-Methods: "euler" (explicit, order 1), "symplectic_euler" (semi-implicit: momenta first, then
-positions with the new velocities; order 1, with the bounded energy error of a symplectic method
-on separable problems such as a mass on a spring or a ball in gravity), "midpoint" (order 2),
+Methods: "verlet" (the default: velocity Verlet, kick-drift-kick, whose drift turns the body
+with ``free_rotation.turn_freely``; order 2, symplectic for forces that do not depend on
+velocity, and exact in kinetic energy and angular momentum for torque-free rotation at any
+spin), and the thesis's explicit methods, which update q like any other state variable and so
+let a body tumbling about an axis other than a principal one gain energy without bound:
+"euler" (explicit, order 1), "symplectic_euler" (semi-implicit: momenta first, then positions
+with the new velocities; order 1, with the bounded energy error of a symplectic method on
+separable problems such as a mass on a spring or a ball in gravity), "midpoint" (order 2),
 "rk4" (order 4).
+
+In "verlet" the forces at the end of the step are evaluated at the momenta an Euler step
+predicts (a constant force is integrated exactly; drag, which depends on velocity, to second
+order): P1 = P0 + h/2 (F(q0, P0) + F(q1, P0 + h F(q0, P0))), likewise L.
+
+Bodies the contact stage solved move with their final momenta: x += h v and q turned freely
+by ``turn_freely`` with L held, so a contact step that changes no momentum keeps the kinetic
+energy too.
 """
 
 from __future__ import annotations
@@ -25,11 +38,13 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.spatial.quaternion import conjugate, derivative, normalize, rotate
 
 __all__ = ["INTEGRATORS", "body_forces", "integrate_bodies"]
 
-INTEGRATORS = {"euler": 0, "symplectic_euler": 1, "midpoint": 2, "rk4": 3}
+INTEGRATORS = {"euler": 0, "symplectic_euler": 1, "midpoint": 2, "rk4": 3, "verlet": 4}
+VERLET = INTEGRATORS["verlet"]
 
 # Each method's stages (rows: the values of INTEGRATORS): how many, the node of the next stage
 # (stage s + 1 is evaluated at y0 + c h k_s), and the weights b_s of the update
@@ -73,24 +88,6 @@ def _derivative(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm
         ty += r[2] * f[0] - r[0] * f[2]
         tz += r[0] * f[1] - r[1] * f[0]
     return v, derivative(q, w), F, (tx, ty, tz)
-
-
-@njit
-def _turn(q, h, w):
-    """q turned by the rotation vector h w (world frame): exp(h w / 2) q, as a 4-tuple."""
-    angle = h * math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-    if angle == 0.0:
-        return q
-    s = math.sin(0.5 * angle) / angle * h
-    c = math.cos(0.5 * angle)
-    rx, ry, rz = w[0] * s, w[1] * s, w[2] * s
-    qx, qy, qz, qw = q[0], q[1], q[2], q[3]
-    return (
-        c * qx + rx * qw + ry * qz - rz * qy,
-        c * qy + ry * qw + rz * qx - rx * qz,
-        c * qz + rz * qw + rx * qy - ry * qx,
-        c * qw - rx * qx - ry * qy - rz * qz,
-    )
 
 
 @njit
@@ -211,7 +208,16 @@ def integrate_bodies(
 
         if solved[i]:  # momenta are final: move with them
             v = (P0[0] * im, P0[1] * im, P0[2] * im)
-            x, q, P, L = _add3(x0, h, v), _turn(q0, h, _angular_velocity(q0, L0, Ii)), P0, L0
+            x, q, P, L = _add3(x0, h, v), turn_freely(q0, L0, Ii, h), P0, L0
+        elif method == VERLET:
+            _, _, F0, T0 = _derivative(i, q0, P0, L0, im, Ii, Fx, drag, pfs, pfa, pff)
+            P, L = _add3(P0, 0.5 * h, F0), _add3(L0, 0.5 * h, T0)
+            v = (P[0] * im, P[1] * im, P[2] * im)
+            x, q = _add3(x0, h, v), turn_freely(normalize(q0), L, Ii, h)
+            # the end forces at the momenta an Euler step predicts
+            Pe, Le = _add3(P0, h, F0), _add3(L0, h, T0)
+            _, _, F1, T1 = _derivative(i, q, Pe, Le, im, Ii, Fx, drag, pfs, pfa, pff)
+            P, L = _add3(P, 0.5 * h, F1), _add3(L, 0.5 * h, T1)
         else:
             # The explicit methods as stages of one loop, so the derivative is written (and
             # compiled) once: stage s is evaluated at y0 + c_s h k_(s-1) and weighted by b_s.

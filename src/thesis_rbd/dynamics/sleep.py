@@ -3,7 +3,10 @@
 A dynamic body is *still* while its speed stays below ``linear_tolerance`` bounding radii per
 second (a tolerance relative to its size: a 10 um part and a 100 m block sleep alike) and its
 angular speed below ``angular_tolerance``; an island (bodies joined by this step's contacts, static
-bodies excluded) falls asleep once every body in it has been still for ``time_to_sleep``.
+bodies excluded) falls asleep once every body in it has been still for ``time_to_sleep`` and it
+is supported: one of its bodies touches a static body or a sleeping island. Still alone is not
+at rest: a body at the top of its flight, or drifting slowly in zero gravity, never sleeps,
+whether the world holds one body or many.
 Asleep bodies have zero velocity and are frozen: the integrator, the narrow phase between
 two resting bodies and the contact solver all skip them, so a settled scene costs almost
 nothing (Box2D's and Bullet's islands sleep the same way).
@@ -222,9 +225,14 @@ class SleepState:
         candidates = awake & (self.still >= s.time_to_sleep)
         if not candidates.any():
             return np.zeros(0, np.int64)
-        # an island sleeps only if none of its awake bodies is still moving
+        # an island sleeps only if none of its awake bodies is still moving, and only if it
+        # rests on something that does not move: a static body or a sleeping island (a body
+        # slow at the top of its flight, or drifting in zero gravity, is still but not at rest)
         moving_labels = np.unique(labels[awake & ~candidates])
-        sleepy = candidates & ~np.isin(labels, moving_labels)
+        a, b = contacts["body_a"], contacts["body_b"]
+        held = static | self.asleep
+        on_support = np.concatenate([a[held[b] & ~held[a]], b[held[a] & ~held[b]]])
+        sleepy = candidates & ~np.isin(labels, moving_labels) & np.isin(labels, labels[on_support])
         fell = np.flatnonzero(sleepy)
         if len(fell) == 0:
             return fell

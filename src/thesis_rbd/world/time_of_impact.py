@@ -4,7 +4,7 @@ A body that flew freely through a step (the contact stage did not act on it) and
 inside another body met it during the step. This stage finds when: each group of such bodies
 (joined by the contacts that hit them) retraces its ballistic path,
 
-    x(-t) = x - v t + a t^2 / 2,   v(-t) = v - a t,   q turned by -w t,
+    x(-t) = x - v t + a t^2 / 2,   v(-t) = v - a t,   q turned back freely,
 
 exact for a constant force and torque-free spin over the step, and bisection on the yes/no
 intersection query finds the last moment before the present at which the group's pairs did
@@ -25,7 +25,7 @@ from thesis_rbd._sorting import unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.touching import pairs_touch
-from thesis_rbd.dynamics.ballistic import move_ballistic
+from thesis_rbd.dynamics.free_rotation import turn_freely
 
 __all__ = [
     "HALVINGS",
@@ -134,7 +134,7 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
     return passed
 
 
-def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, acceleration, dt, cache):
+def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleration, dt, cache):
     """Step each group of movers with a hit contact back to its time of impact.
 
     Parameters
@@ -150,9 +150,9 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
         Contacts that a mover ran into during the step.
     movers : (n,) bool
         Bodies in free flight this step.
-    v, w : (n, 3) float64
+    v : (n, 3) float64
         Velocities at the end of the step; stepped-back bodies get those of their time of
-        impact.
+        impact (their angular momenta, the bodies', are kept: torque-free spin).
     acceleration : (n, 3) float64
         Constant acceleration of each body over the step (external force / mass).
     dt : float
@@ -176,7 +176,8 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
     for g in range(groups):
         members, mine, pairs = group_contacts(group, g, body_a, body_b)
         t = bisect_to_contact(
-            members, pairs, v, w, acceleration, position, orientation, dt,
+            members, pairs, v, bodies.full("angular_momentum"),
+            bodies.full("inverse_inertia_body"), acceleration, position, orientation, dt,
             bodies.full("center_of_mass_local"), detector.touch_inputs(cache),
         )  # fmt: skip
         if t > 0.0:
@@ -193,8 +194,8 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, w, accelera
 
 @njit
 def bisect_to_contact(
-    members, pairs, v, w, acceleration, position, orientation, dt, center_of_mass_local,
-    touch_inputs,
+    members, pairs, v, angular_momentum, inverse_inertia_body, acceleration, position,
+    orientation, dt, center_of_mass_local, touch_inputs,
 ):  # fmt: skip
     """Leave ``members`` just inside first contact of ``pairs`` and return how far back that
     is (s), in one call.
@@ -202,7 +203,8 @@ def bisect_to_contact(
     The group goes back along its ballistic path to the start of the step and, unless its
     pairs touched already then (``dt`` is returned, the bodies left there), bisection on
     ``touching.pairs_touch`` finds the last moment at which they touched, to
-    dt / 2^``HALVINGS``.
+    dt / 2^``HALVINGS``. Each probe places the bodies at their pose s back from the end of
+    the step (``place_back``), so where a body is tried depends on s alone.
 
     Parameters
     ----------
@@ -210,26 +212,55 @@ def bisect_to_contact(
         The group's bodies.
     pairs : (p, 2) int64
         The pairs whose contact is sought.
-    v, w, acceleration, position, orientation
-        As ``move_ballistic``; ``v`` and the poses are left at the time found.
+    v : (n, 3) float64
+        Velocities at the end of the step; the members' are left at the time found.
+    angular_momentum, inverse_inertia_body : (n, 3), (n, 3, 3) float64
+        World angular momenta (kept: torque-free spin) and body-frame inverse inertias.
+    acceleration : (n, 3) float64
+        Constant acceleration over the step.
+    position, orientation : (n, 3), (n, 4) float64
+        Poses at the end of the step; the members' are left at the time found.
     dt : float
         The step: no body goes back further.
     center_of_mass_local : (n, 3) float64
     touch_inputs : tuple
         ``CollisionPipeline.touch_inputs(cache)``.
     """
-    at = dt
-    move_ballistic(members, -dt, v, w, acceleration, position, orientation)
+    end_position = position[members].copy()
+    end_orientation = orientation[members].copy()
+    end_v = v[members].copy()
+    ballistic = (
+        members, end_position, end_orientation, end_v, angular_momentum, inverse_inertia_body,
+        acceleration, position, orientation, v,
+    )  # fmt: skip
+    place_back(dt, *ballistic)
     if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
         return dt
     inside, outside = 0.0, dt
     for _ in range(HALVINGS):
         middle = 0.5 * (inside + outside)
-        move_ballistic(members, at - middle, v, w, acceleration, position, orientation)
-        at = middle
+        place_back(middle, *ballistic)
         if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
             inside = middle
         else:
             outside = middle
-    move_ballistic(members, at - inside, v, w, acceleration, position, orientation)
+    place_back(inside, *ballistic)
     return inside
+
+
+@njit
+def place_back(
+    s, members, end_position, end_orientation, end_v, angular_momentum, inverse_inertia_body,
+    acceleration, position, orientation, v,
+):  # fmt: skip
+    """Put ``members`` (m,) where their ballistic paths had them s before the end of the step
+    (``end_position``, ``end_orientation``, ``end_v``, one row per member): x = x1 - v1 s
+    + a s^2 / 2, v = v1 - a s, q turned back freely by s with L held."""
+    for k in range(members.shape[0]):
+        i = members[k]
+        for a in range(3):
+            position[i, a] = end_position[k, a] - end_v[k, a] * s + 0.5 * acceleration[i, a] * s * s
+            v[i, a] = end_v[k, a] - acceleration[i, a] * s
+        q = turn_freely(end_orientation[k], angular_momentum[i], inverse_inertia_body[i], -s)
+        for a in range(4):
+            orientation[i, a] = q[a]

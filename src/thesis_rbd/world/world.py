@@ -131,8 +131,10 @@ class World(WorldReadout):
         Time step (s), > 0.
     gravity : (3,) array_like
         Gravitational acceleration (m/s^2); (0, 0, 0) by default (no effect is on by default).
-    integrator : {"euler", "symplectic_euler", "midpoint", "rk4"}
-        ODE method for bodies that no contact acts on.
+    integrator : {"verlet", "euler", "symplectic_euler", "midpoint", "rk4"}
+        ODE method for bodies that no contact acts on (``dynamics.integrators``). "verlet"
+        keeps a torque-free body's kinetic energy and angular momentum at any spin; the
+        thesis's explicit methods let a body tumbling off a principal axis gain energy.
     linear_drag, quadratic_drag, angular_drag : float
         Air resistance on every dynamic body: F = -k1 v - k2 |v| v, tau = -ka w.
     contact_response : bool
@@ -160,7 +162,7 @@ class World(WorldReadout):
         self,
         dt: float = 1.0 / 240.0,
         gravity=(0.0, 0.0, 0.0),
-        integrator: str = "rk4",
+        integrator: str = "verlet",
         linear_drag: float = 0.0,
         quadratic_drag: float = 0.0,
         angular_drag: float = 0.0,
@@ -563,7 +565,7 @@ class World(WorldReadout):
         n = b.count
         movers = ~(s.frozen | s.solved[:n])
         state, masses = self._kernel_bodies[:4], self._kernel_bodies[4:6]
-        hits, receding, v, w = find_hits(
+        hits, receding, v, _ = find_hits(
             n, s.frozen, movers, c.ints, c.floats, c.count, *state, *masses
         )
         if receding.any():
@@ -574,7 +576,7 @@ class World(WorldReadout):
             return s
         acceleration = s.external_force * b.inverse_mass[:, None]
         rewind, contacts = step_back_to_impact(
-            detector, b, c, hits, movers, v, w, acceleration, self.dt, s.convex_cache
+            detector, b, c, hits, movers, v, acceleration, self.dt, s.convex_cache
         )
         rewound = rewind > 0
         # the stepped-back bodies carry the velocity of their time of impact
