@@ -36,3 +36,88 @@ def test_a_thin_rod_dropped_on_a_floor_never_gains_energy(seed):
         world.step()
         rise = max(rise, world.kinetic_energy() + world.potential_energy() - energy0)
     assert rise <= 1e-3 * abs(energy0)
+
+
+SIZE = 0.1  # m: the boxes' edge, the balls' diameter
+SPEED = 2.0  # m/s
+
+
+def ball_facing_x():
+    """A 0.1 m icosphere turned so that two of its faces face +x and -x: a row of them
+    touches face to face (at vertices, the contact normal of two polyhedra is not along the
+    row)."""
+    mesh = rbd.shapes.icosphere(SIZE / 2, 2)
+    corners = mesh.vertices[mesh.faces]
+    normal = np.cross(corners[0, 1] - corners[0, 0], corners[0, 2] - corners[0, 0])
+    turn, _ = Rotation.align_vectors([[1.0, 0.0, 0.0]], [normal])
+    return rbd.TriangleMesh(turn.apply(np.array(mesh.vertices)), mesh.faces)
+
+
+def row_world(shape, count, e, on_floor):
+    """A body of 0.2 kg at 2 m/s along x towards ``count`` bodies at rest that touch each
+    other, in zero gravity or on a frictionless floor. Returns the world and its bodies (the
+    moving one first)."""
+    world = rbd.World(dt=DT, gravity=(0, 0, -G) if on_floor else (0, 0, 0))
+    mesh = rbd.shapes.box((SIZE,) * 3) if shape == "box" else ball_facing_x()
+    span = np.ptp(mesh.vertices[:, 0])  # the balls touch face to face
+    height = 0.0
+    if on_floor:
+        world.add_body(
+            rbd.shapes.box((50.0, 2.0, 0.2)), static=True, position=(0, 0, -0.1),
+            restitution=1.0, friction=0.0,
+        )  # fmt: skip
+        height = -mesh.vertices[:, 2].min()
+    mover = world.add_body(
+        mesh, mass=0.2, position=(-3 * span, 0, height), linear_velocity=(SPEED, 0, 0),
+        restitution=e, friction=0.0,
+    )  # fmt: skip
+    row = [
+        world.add_body(mesh, mass=0.2, position=(k * span, 0, height), restitution=e, friction=0.0)
+        for k in range(count)
+    ]
+    bodies = [mover, *row]
+    return world, bodies
+
+
+@pytest.mark.parametrize("on_floor", [False, True], ids=["zero_gravity", "on_a_floor"])
+@pytest.mark.parametrize("e", [0.0, 0.5, 1.0])
+@pytest.mark.parametrize("count", [2, 5, 20])
+@pytest.mark.parametrize("shape", ["box", "ball"])
+def test_a_row_of_touching_bodies_takes_the_impact(shape, count, e, on_floor):
+    """The impact resolves in the step it happens: momentum along x kept to 1e-12 (nothing
+    acts along x), kinetic energy (less the vertical motion the floor holds against gravity)
+    never above its value before the impact, and every body of the row moving by the step
+    after the impact."""
+    world, bodies = row_world(shape, count, e, on_floor)
+    mass = 0.2
+    momentum0 = mass * SPEED
+    energy0 = 0.5 * mass * SPEED**2
+    impact_step, most_energy, steps = None, 0.0, round(0.5 / DT)
+    for step in range(steps):
+        world.step()
+        velocity = np.array([world.linear_velocity(b) for b in bodies])
+        momentum = mass * velocity[:, 0].sum()
+        assert momentum == pytest.approx(momentum0, rel=1e-12)
+        # the floor holds the bodies against gravity, a vertical motion of its own
+        most_energy = max(
+            most_energy, world.kinetic_energy() - 0.5 * mass * (velocity[:, 2] ** 2).sum()
+        )
+        if impact_step is None and velocity[0, 0] < SPEED - 1e-9:
+            impact_step = step
+        if impact_step is not None and step == impact_step + 1:
+            assert (velocity[1:, 0] > 0.0).all(), velocity[:, 0]
+    assert impact_step is not None
+    # on a floor, a resting contact and an impact are told apart at the speed gravity gives
+    # in a step: each body may keep the energy of g dt (its contact with the floor resting)
+    resolution = (count + 1) * 0.5 * mass * (G * DT) ** 2 if on_floor else 0.0
+    assert most_energy <= energy0 * (1 + 1e-9) + resolution
+
+
+def test_five_touching_balls_with_e_1_leave_as_poisson_says():
+    """One ball at v into four touching balls, e = 1, zero gravity: Poisson's simultaneous
+    impact (every contact gives back what it took) sends them off at (-0.6, 0.4, 0.4, 0.4,
+    0.4) v (momentum 1, energy 1: 0.36 + 4 x 0.16)."""
+    world, bodies = row_world("ball", 4, 1.0, on_floor=False)
+    world.step(round(0.5 / DT))
+    velocity = np.array([world.linear_velocity(b)[0] for b in bodies]) / SPEED
+    np.testing.assert_allclose(velocity, [-0.6, 0.4, 0.4, 0.4, 0.4], atol=0.01)

@@ -150,7 +150,7 @@ def test_pairs_touch_asks_convex_and_mesh_pairs_alike():
     contact_count=st.integers(0, 30),
 )
 def test_group_contacts_are_the_numpy_set_operations(data, body_count, contact_count):
-    """The kernel's group members, contacts and distinct pairs against np.isin and
+    """The kernel's group members, contacts and distinct hit pairs against np.isin and
     np.unique(axis=0), the Python it replaced."""
     bodies = st.integers(0, body_count - 1)
     body_a = np.array(data.draw(st.lists(bodies, min_size=contact_count, max_size=contact_count)),
@@ -159,12 +159,15 @@ def test_group_contacts_are_the_numpy_set_operations(data, body_count, contact_c
                       np.int64)  # fmt: skip
     group = np.array(data.draw(st.lists(st.integers(-1, 2), min_size=body_count,
                                         max_size=body_count)), np.int64)  # fmt: skip
+    hits = np.array(data.draw(st.lists(st.booleans(), min_size=contact_count,
+                                       max_size=contact_count)), bool)  # fmt: skip
     for g in range(3):
-        members, mine, pairs = group_contacts(group, g, body_a, body_b)
+        members, mine, pairs = group_contacts(group, g, body_a, body_b, hits)
         expected_members = np.flatnonzero(group == g)
         expected_mine = np.isin(body_a, expected_members) | np.isin(body_b, expected_members)
+        searched = expected_mine & hits
         expected_pairs = np.unique(
-            np.stack([body_a[expected_mine], body_b[expected_mine]], axis=1), axis=0
+            np.stack([body_a[searched], body_b[searched]], axis=1), axis=0
         ).reshape(-1, 2)
         np.testing.assert_array_equal(members, expected_members)
         np.testing.assert_array_equal(mine, expected_mine)

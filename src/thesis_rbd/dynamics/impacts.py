@@ -280,9 +280,10 @@ def _collision_terms(
     restitution, friction,
 ):  # fmt: skip
     """The rows' terms of the collision at the time of impact: ``bias``, ``bounce``, ``mu``
-    and ``tolerance`` (k,) of the contacts ``sel``. A contact bounces when it approaches
-    faster than the step's forces could make it; an island without a bounce only stops its
-    approach, which the resting solve after it does too, so it is left out (bias inf)."""
+    and ``tolerance`` (k,) of the contacts ``sel``. An island rebounds when one of its
+    contacts approaches faster than the step's forces could make it, and then every touching
+    contact of it rebounds (Poisson); an island without a rebound only stops its approach,
+    which the resting solve after it does too, so it is left out (bias inf)."""
     dt = settings[cs.DT]
     kept = sel.shape[0]
     bias = np.empty(kept)
@@ -313,6 +314,10 @@ def _collision_terms(
             tolerance[k] = IMPACT_TOLERANCE * fastest
             if not rebound:
                 bias[k] = np.inf  # the collision only stops the approach: phase 2 does that
+            elif bias[k] == 0.0:
+                # Poisson's simultaneous impact: every touching contact of the island gives
+                # back e of what it took (a row of touching bodies passes the impact on)
+                bounce[k] = combined_restitution(restitution, sa[k], sb[k])
     return bias, bounce, mu, tolerance
 
 

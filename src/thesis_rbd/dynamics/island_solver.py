@@ -34,7 +34,11 @@ from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
 
-__all__ = ["correct_positions", "island_tolerances", "solve_islands"]
+__all__ = ["REBOUND_EXACT_CONTACTS", "correct_positions", "island_tolerances", "solve_islands"]
+
+# the most contacts of a rebounding island that "auto" solves exactly when PGS has not
+# converged (a row of 20 polyhedral balls touching face to face has 120)
+REBOUND_EXACT_CONTACTS = 160
 
 
 @njit
@@ -82,6 +86,14 @@ def solve_islands(
 ):  # fmt: skip
     """Solve each island's contacts, then add Poisson's restitution, in place.
 
+    Restitution (an island with a ``bounce``): each contact's compression impulse times its
+    ``bounce`` is added, then the island is solved again with every taking part contact's
+    bias zero, from zero impulses: where the rebound of one contact drives two bodies into
+    each other (a row of touching bodies hit at one end), that contact stops approaching.
+    With one restitution for the island this is Poisson's simultaneous impact, which conserves
+    momentum and never adds kinetic energy (the second solve is inelastic: it only takes
+    energy out).
+
     Parameters
     ----------
     settings, polygon
@@ -94,8 +106,8 @@ def solve_islands(
         ``pgs.build_rows`` of those contacts.
     bias, bounce, friction, tolerance : (c,) float64
         Normal bias (u_n + bias >= 0; +inf for a contact that takes no part, and an island
-        none of whose contacts take part is skipped), restitution of the contacts that
-        bounce (0 for the others), friction coefficient, velocity tolerance of PGS (m/s).
+        none of whose contacts take part is skipped), restitution of each contact (0: none),
+        friction coefficient, velocity tolerance of PGS (m/s).
     inverse_mass : (n,) float64
         Zero for bodies that must not move.
     inverse_inertia : (n, 3, 3) float64
@@ -107,80 +119,113 @@ def solve_islands(
     stats : (6,) int64
         ``contact_stats.STATS`` counters, updated.
     """
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
-    solver = int(settings[cs.SOLVER])
-    iterations = int(settings[cs.ITERATIONS])
-    exact_limit = int(settings[cs.EXACT_LIMIT])
-    sides = polygon.shape[0] - 1
+    response_a, response_b = rows[2], rows[3]
     v_start = v.copy()
     w_start = w.copy()
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
         taking_part = False
+        rebounds = False
         for k in range(s, e):
-            if bias[k] != np.inf:
-                taking_part = True
-                break
+            taking_part |= bias[k] != np.inf
+            rebounds |= bounce[k] > 0.0
         if not taking_part:
             continue
-        exact = solver == 2
-        if not exact:
-            if e - s >= SUBSPACE_CONTACTS:
-                sweeps, converged = sweep_with_subspace_steps(
-                    s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
-                    inverse_mass, bias, friction, v, w, impulse,
-                )  # fmt: skip
-            else:
-                sweeps, converged = sweep_island(
-                    s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
-                    angular_b, response_a, response_b, normal_step, tangent_step, coupling,
-                    inverse_mass, bias, friction, v, w, impulse,
-                )  # fmt: skip
-            stats[SWEEPS] += sweeps
-            stats[MAX_SWEEPS] = max(stats[MAX_SWEEPS], sweeps)
-            if not converged:
-                if solver == 0 and e - s <= exact_limit:
-                    exact = True
-                else:
-                    stats[UNCONVERGED] += 1
-        if exact:
-            velocity_scale = 0.0
-            for k in range(s, e):  # back to the velocities before this island's impulses
-                velocity_scale = max(velocity_scale, tolerance[k] / settings[cs.TOLERANCE])
-                for i in (body_a[k], body_b[k]):
-                    for a in range(3):
-                        v[i, a] = v_start[i, a]
-                        w[i, a] = w_start[i, a]
-            # contacts with an infinite bias can never bind: they stay out of the LCP
-            taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
-            for k in range(s, e):
-                for d in range(3):
-                    impulse[k, d] = 0.0
-            frame = (
-                body_a[taking_part], body_b[taking_part], arm_a[taking_part],
-                arm_b[taking_part], basis[taking_part],
-            )  # fmt: skip
-            answer = np.zeros((taking_part.shape[0], 3))
-            status = solve_exact(
-                sides, frame, bias[taking_part], friction[taking_part],
-                (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
-            )  # fmt: skip
-            for idx in range(taking_part.shape[0]):
-                for d in range(3):
-                    impulse[taking_part[idx], d] = answer[idx, d]
-            stats[EXACT_ISLANDS] += 1
-            stats[UNCONVERGED] += status != 0
+        # an impact's rebound gives back e of the compression impulses, and keeps the energy
+        # only if they are the compression's answer: an island that rebounds is solved
+        # exactly, when PGS has not converged, up to REBOUND_EXACT_CONTACTS contacts
+        exact_limit = REBOUND_EXACT_CONTACTS if rebounds else int(settings[cs.EXACT_LIMIT])
+        _solve_island(
+            s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, bias, friction,
+            tolerance, inverse_mass, inverse_inertia, v, w, v_start, w_start, impulse, stats,
+            exact_limit,
+        )  # fmt: skip
+        if not rebounds:
+            continue
+        for k in range(s, e):
+            extra = bounce[k] * impulse[k, 0]
+            if extra > 0.0:
+                a, b = body_a[k], body_b[k]
+                for i in range(3):
+                    v[a, i] += inverse_mass[a] * extra * basis[k, 0, i]
+                    v[b, i] -= inverse_mass[b] * extra * basis[k, 0, i]
+                    w[a, i] += extra * response_a[k, 0, i]
+                    w[b, i] -= extra * response_b[k, 0, i]
+                impulse[k, 0] += extra
+        # no contact may approach after the rebound: an inelastic solve from there
+        held = np.where(np.isfinite(bias), 0.0, np.inf)
+        correction = np.zeros_like(impulse)
+        _solve_island(
+            s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, held, friction,
+            tolerance, inverse_mass, inverse_inertia, v, w, v.copy(), w.copy(), correction,
+            stats, exact_limit,
+        )  # fmt: skip
+        for k in range(s, e):
+            for d in range(3):
+                impulse[k, d] += correction[k, d]
 
-    for k in range(body_a.shape[0]):
-        extra = bounce[k] * impulse[k, 0]
-        if extra > 0.0:
-            a, b = body_a[k], body_b[k]
-            for i in range(3):
-                v[a, i] += inverse_mass[a] * extra * basis[k, 0, i]
-                v[b, i] -= inverse_mass[b] * extra * basis[k, 0, i]
-                w[a, i] += extra * response_a[k, 0, i]
-                w[b, i] -= extra * response_b[k, 0, i]
-            impulse[k, 0] += extra
+
+@njit(inline="always")
+def _solve_island(
+    s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, bias, friction,
+    tolerance, inverse_mass, inverse_inertia, v, w, v_start, w_start, impulse, stats,
+    exact_limit,
+):  # fmt: skip
+    """The velocity problem of the island ``s:e`` by PGS (with subspace steps on a big
+    island), or exactly (``v_start``, ``w_start``: the velocities before its impulses): as
+    the settings ask, or ("auto") when PGS has not converged on at most ``exact_limit``
+    contacts."""
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
+    solver = int(settings[cs.SOLVER])
+    iterations = int(settings[cs.ITERATIONS])
+    sides = polygon.shape[0] - 1
+    exact = solver == 2
+    if not exact:
+        if e - s >= SUBSPACE_CONTACTS:
+            sweeps, converged = sweep_with_subspace_steps(
+                s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
+                inverse_mass, bias, friction, v, w, impulse,
+            )  # fmt: skip
+        else:
+            sweeps, converged = sweep_island(
+                s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
+                angular_b, response_a, response_b, normal_step, tangent_step, coupling,
+                inverse_mass, bias, friction, v, w, impulse,
+            )  # fmt: skip
+        stats[SWEEPS] += sweeps
+        stats[MAX_SWEEPS] = max(stats[MAX_SWEEPS], sweeps)
+        if not converged:
+            if solver == 0 and e - s <= exact_limit:
+                exact = True
+            else:
+                stats[UNCONVERGED] += 1
+    if exact:
+        velocity_scale = 0.0
+        for k in range(s, e):  # back to the velocities before this island's impulses
+            velocity_scale = max(velocity_scale, tolerance[k] / settings[cs.TOLERANCE])
+            for i in (body_a[k], body_b[k]):
+                for a in range(3):
+                    v[i, a] = v_start[i, a]
+                    w[i, a] = w_start[i, a]
+        # contacts with an infinite bias can never bind: they stay out of the LCP
+        taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
+        for k in range(s, e):
+            for d in range(3):
+                impulse[k, d] = 0.0
+        frame = (
+            body_a[taking_part], body_b[taking_part], arm_a[taking_part],
+            arm_b[taking_part], basis[taking_part],
+        )  # fmt: skip
+        answer = np.zeros((taking_part.shape[0], 3))
+        status = solve_exact(
+            sides, frame, bias[taking_part], friction[taking_part],
+            (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
+        )  # fmt: skip
+        for idx in range(taking_part.shape[0]):
+            for d in range(3):
+                impulse[taking_part[idx], d] = answer[idx, d]
+        stats[EXACT_ISLANDS] += 1
+        stats[UNCONVERGED] += status != 0
 
 
 @njit(separate=True)

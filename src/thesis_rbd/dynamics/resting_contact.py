@@ -140,6 +140,27 @@ def solve_contacts(
     )
 
     rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
+    impact = np.zeros((c, 3))
+    if np.any(bounce > 0.0):
+        # an impact: resolved first, on the velocities before the forces, so that only its
+        # own impulses rebound (a resting contact's share of the forces must not); then the
+        # forces act on the velocities it left, and the contacts are solved as at rest
+        impact_bias, impact_bounce = _impact_terms(
+            island_start, bounce, depths, order, slop, sa, sb, restitution
+        )
+        after_v, after_w = v0.copy(), w0.copy()
+        solve_islands(
+            settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, impact_bias,
+            impact_bounce, mu, tolerance, movable_mass, inverse_inertia, after_v, after_w,
+            impact, stats,
+        )  # fmt: skip
+        v += after_v - v0
+        w += after_w - w0
+        v0, w0 = after_v, after_w
+        bias, bounce, push, mu, tolerance = _contact_terms(
+            settings, static, order, sa, sb, depths, sorted_normals, arm_a, arm_b, v0, w0, v,
+            w, slop, restitution, friction,
+        )  # fmt: skip
     # a moving island is solved to a fraction of its motion before the forces, one at rest to
     # the slop's tolerance (contact_settings)
     relaxed = island_tolerances(
@@ -149,6 +170,7 @@ def solve_contacts(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
         relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
     )  # fmt: skip
+    lam += impact
     stats[SWEEPS] += correct_positions(
         settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
         orientation,
@@ -240,6 +262,27 @@ def _contact_terms(
         mu[k] = combined_friction(friction, a, b)
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
     return bias, bounce, push, mu, tolerance
+
+
+@njit(inline="always")
+def _impact_terms(island_start, bounce, depths, order, slop, sa, sb, restitution):
+    """The rows' ``bias`` and ``bounce`` (c,) of the impact: in an island where a contact
+    approaches fast (``bounce`` > 0), every touching contact takes part with bias 0 and
+    rebounds with its pair's restitution (Poisson's simultaneous impact: a row of touching
+    bodies passes the impact on and each contact gives back e of what it took); the other
+    contacts and islands take no part (bias inf)."""
+    c = bounce.shape[0]
+    impact_bias = np.full(c, np.inf)
+    impact_bounce = np.zeros(c)
+    for isl in range(island_start.shape[0] - 1):
+        s, e = island_start[isl], island_start[isl + 1]
+        if not np.any(bounce[s:e] > 0.0):
+            continue
+        for k in range(s, e):
+            if depths[order[k]] >= -slop[k]:
+                impact_bias[k] = 0.0
+                impact_bounce[k] = combined_restitution(restitution, sa[k], sb[k])
+    return impact_bias, impact_bounce
 
 
 @njit(inline="always")

@@ -86,14 +86,19 @@ def unique_pairs(body_a, body_b, selected):
 
 
 @njit
-def group_contacts(group, g, body_a, body_b):
+def group_contacts(group, g, body_a, body_b, hits):
     """Group g's bodies (m,) int64, its contacts (c,) bool (those with a body in the group)
-    and their distinct pairs (``unique_pairs``), from ``group`` (n,) of ``impact_groups``."""
+    and the distinct pairs (``unique_pairs``) of those it hit (``hits`` (c,) bool), from
+    ``group`` (n,) of ``impact_groups``.
+
+    Only the hit pairs are searched for a first contact: a pair that touches at the start of
+    the step (a row of boxes face to face) touched before the impact, and searching it too
+    would send the group back to the start of the step every step."""
     members = np.flatnonzero(group == g)
     mine = np.zeros(body_a.shape[0], np.bool_)
     for k in range(body_a.shape[0]):
         mine[k] = group[body_a[k]] == g or group[body_b[k]] == g
-    return members, mine, unique_pairs(body_a, body_b, mine)
+    return members, mine, unique_pairs(body_a, body_b, mine & hits)
 
 
 def passed_through(detector, contacts, receding, start_position, start_orientation, cache):
@@ -174,7 +179,7 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleratio
     position, orientation = bodies.full("position"), bodies.full("orientation")
     renewed = np.zeros(len(body_a), bool)
     for g in range(groups):
-        members, mine, pairs = group_contacts(group, g, body_a, body_b)
+        members, mine, pairs = group_contacts(group, g, body_a, body_b, hits)
         t = bisect_to_contact(
             members, pairs, v, bodies.full("angular_momentum"),
             bodies.full("inverse_inertia_body"), acceleration, position, orientation, dt,
