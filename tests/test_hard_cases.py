@@ -1,8 +1,15 @@
 """Hard cases a new user meets in the first hour, at the default settings: their answers
-are conserved or analytic quantities.
+are conserved or analytic quantities, or bounds from the geometry.
 
 * A thin rod dropped on a floor with e = 0 and no friction: no force in the scene adds
   energy, so the total energy never rises above its start.
+* Rows of touching boxes and balls hit at one end: momentum along the row is kept, the
+  kinetic energy never exceeds the impact's, every body moves after the impact, and five
+  balls with e = 1 leave as Poisson's simultaneous impact says.
+* Bodies that touch something at the start of a step and run into something else during it
+  (a box sliding on a floor into a thin wall, two touching cubes into a third, two touching
+  plates onto a third): no passing into the other beyond the suite's contact bound, 1 % of
+  the thinner body, and every stack in its order.
 """
 
 import numpy as np
@@ -121,3 +128,72 @@ def test_five_touching_balls_with_e_1_leave_as_poisson_says():
     world.step(round(0.5 / DT))
     velocity = np.array([world.linear_velocity(b)[0] for b in bodies]) / SPEED
     np.testing.assert_allclose(velocity, [-0.6, 0.4, 0.4, 0.4, 0.4], atol=0.01)
+
+
+@pytest.mark.parametrize("x0", [0.0, 0.01])
+@pytest.mark.parametrize("speed", [1.0, 5.0, 20.0, 50.0])
+def test_a_box_sliding_on_a_floor_stops_at_a_thin_wall(speed, x0):
+    """A 0.1 m box sliding on a frictionless floor (the contact stage moves it every step)
+    into a static wall a tenth of its size thick: it never sinks into the wall by more than
+    1 % of the wall's thickness (the suite's contact bound), and stays on its side."""
+    world = rbd.World(dt=DT, gravity=(0, 0, -G))
+    world.add_body(
+        rbd.shapes.box((50.0, 2.0, 0.2)), static=True, position=(0, 0, -0.1), friction=0.0
+    )
+    wall = 0.01
+    world.add_body(
+        rbd.shapes.box((wall, 2.0, 1.0)), static=True, position=(1.0, 0, 0.5), friction=0.0
+    )
+    box = world.add_body(
+        rbd.shapes.box((0.1, 0.1, 0.1)), mass=1.0, position=(x0, 0, 0.05),
+        linear_velocity=(speed, 0, 0), friction=0.0, restitution=0.0,
+    )  # fmt: skip
+    face = 1.0 - wall / 2
+    deepest = -np.inf
+    for _ in range(round(1.0 / DT)):
+        world.step()
+        deepest = max(deepest, world.position(box)[0] + 0.05 - face)
+    assert deepest <= 0.01 * wall
+    assert world.position(box)[0] < face
+
+
+@pytest.mark.parametrize("speed", [10.0, 100.0, 300.0])
+def test_two_touching_cubes_never_pass_into_a_third(speed):
+    """Zero gravity: two touching unit cubes at 10-300 m/s into a free unit cube (at 300 m/s
+    each moves 1.25 cubes a step): no two cubes overlap by more than 1 % of their size, and
+    they stay in their order."""
+    world = rbd.World(dt=DT)
+    cube = rbd.shapes.box((1.0, 1.0, 1.0))
+    bodies = [
+        world.add_body(cube, mass=1.0, position=(-3, 0, 0), linear_velocity=(speed, 0, 0)),
+        world.add_body(cube, mass=1.0, position=(-2, 0, 0), linear_velocity=(speed, 0, 0)),
+        world.add_body(cube, mass=1.0, position=(2, 0, 0)),
+    ]
+    worst = -np.inf
+    for _ in range(round(1.0 / DT)):
+        world.step()
+        x = [world.position(b)[0] for b in bodies]
+        worst = max(worst, x[0] + 1 - x[1], x[1] + 1 - x[2])
+    assert worst <= 0.01
+
+
+def test_two_touching_plates_land_on_a_plate_in_their_order():
+    """Two 1 m x 1 m x 1 mm plates touching face to face fall at 0.4 m/s onto a plate on the
+    floor: no contact deeper than 1 % of a plate, and the stack ends 0.5 / 1.5 / 2.5 mm."""
+    world = rbd.World(dt=DT, gravity=(0, 0, -G))
+    world.add_body(rbd.shapes.box((4.0, 4.0, 0.2)), static=True, position=(0, 0, -0.1))
+    plate = rbd.shapes.box((1.0, 1.0, 0.001))
+    bodies = [world.add_body(plate, mass=1.0, position=(0, 0, 0.0005))]
+    bodies += [
+        world.add_body(
+            plate, mass=1.0, position=(0, 0, 0.0105 + 0.001 * k), linear_velocity=(0, 0, -0.4)
+        )
+        for k in range(2)
+    ]
+    deepest = 0.0
+    for _ in range(round(2.0 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+    assert deepest <= 0.01 * 0.001
+    heights = [world.position(b)[2] for b in bodies]
+    np.testing.assert_allclose(heights, [0.0005, 0.0015, 0.0025], atol=0.01 * 0.001)

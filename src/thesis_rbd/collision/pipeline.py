@@ -298,26 +298,42 @@ class CollisionPipeline:
         """
         involved = fast[pairs[:, 0]] | fast[pairs[:, 1]]
         position, orientation = position.copy(), orientation.copy()
-        caught = []
+        end_position, end_orientation = position.copy(), orientation.copy()
+        thickness = self._thickness
+        caught_at = {}  # body -> the fraction of the step at which it was caught
         for i, j in pairs[involved]:
+            if fast[i] and fast[j]:
+                # two fast bodies: sampled one against the other only if one may pass
+                # through the other (two touching cubes flying together do not)
+                relative = (end_position[i] - start_position[i]) - (
+                    end_position[j] - start_position[j]
+                )
+                if np.linalg.norm(relative) < 0.5 * min(thickness[i], thickness[j]):
+                    continue
             mover = i if fast[i] else j
-            if mover in caught:
+            if mover in caught_at:
                 continue
-            end_position = position[mover].copy()
-            end_orientation = orientation[mover].copy()
-            q0 = start_orientation[mover] * np.sign(start_orientation[mover] @ end_orientation)
-            travel = np.linalg.norm(end_position - start_position[mover])
-            samples = int(min(np.ceil(travel / (0.5 * self._thickness[mover])), _MOST_SAMPLES))
-            for s in np.arange(1, samples) / samples:
-                position[mover] = (1 - s) * start_position[mover] + s * end_position
-                q = (1 - s) * q0 + s * end_orientation
-                orientation[mover] = q / np.linalg.norm(q)
+            q0 = start_orientation[mover] * np.sign(
+                start_orientation[mover] @ end_orientation[mover]
+            )
+            travel = np.linalg.norm(end_position[mover] - start_position[mover])
+            samples = int(min(np.ceil(travel / (0.5 * thickness[mover])), _MOST_SAMPLES))
+            for fraction in np.arange(1, samples) / samples:
+                _place_between(mover, fraction, q0, start_position, end_position,
+                               end_orientation, position, orientation)  # fmt: skip
                 if self.intersects(np.array([[i, j]]), position, orientation, cache):
-                    caught.append(mover)
+                    caught_at[mover] = fraction
                     break
             else:
-                position[mover], orientation[mover] = end_position, end_orientation
-        caught = np.array(caught, np.int64)
+                position[mover], orientation[mover] = end_position[mover], end_orientation[mover]
+        # a fast body in contact with a caught one moves with it (two touching cubes flying
+        # together): it is caught at the same fraction of its own motion
+        companions = _bodies_joined(caught_at, contacts, fast)
+        for body, fraction in companions.items():
+            q0 = start_orientation[body] * np.sign(start_orientation[body] @ end_orientation[body])
+            _place_between(body, fraction, q0, start_position, end_position, end_orientation,
+                           position, orientation)  # fmt: skip
+        caught = np.array(sorted({**caught_at, **companions}), np.int64)
         if not len(caught):
             return contacts, caught, position[caught], orientation[caught]
         moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
@@ -348,3 +364,34 @@ class CollisionPipeline:
             pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop,
             self._query_scratch, *state, cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
+
+
+def _place_between(body, fraction, q0, start_position, end_position, end_orientation,
+                   position, orientation):  # fmt: skip
+    """Put ``body`` at ``fraction`` of its motion over the step: the position interpolated,
+    the orientation normalised-lerped from ``q0`` (its start, on the end's hemisphere)."""
+    position[body] = (1 - fraction) * start_position[body] + fraction * end_position[body]
+    q = (1 - fraction) * q0 + fraction * end_orientation[body]
+    orientation[body] = q / np.linalg.norm(q)
+
+
+def _bodies_joined(caught_at, contacts, fast) -> dict:
+    """The fast bodies joined to a caught one through contacts between fast bodies, not
+    caught themselves, each with the earliest fraction of a caught body it is joined to."""
+    if not caught_at or contacts.count == 0:
+        return {}
+    a, b = contacts["body_a"], contacts["body_b"]
+    both_fast = fast[a] & fast[b]
+    neighbours: dict[int, set] = {}
+    for i, j in zip(a[both_fast].tolist(), b[both_fast].tolist(), strict=True):
+        neighbours.setdefault(i, set()).add(j)
+        neighbours.setdefault(j, set()).add(i)
+    joined: dict[int, float] = {}
+    for body, fraction in sorted(caught_at.items(), key=lambda item: item[1]):
+        frontier = [body]
+        while frontier:
+            for other in neighbours.get(frontier.pop(), ()):
+                if other not in caught_at and other not in joined:
+                    joined[other] = fraction
+                    frontier.append(other)
+    return joined

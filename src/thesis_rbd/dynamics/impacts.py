@@ -50,29 +50,49 @@ from thesis_rbd.dynamics.islands import find_islands
 from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 
-__all__ = ["IMPACT_TOLERANCE", "any_free_body", "find_hits", "resolve_impacts"]
+__all__ = ["IMPACT_TOLERANCE", "find_hits", "may_have_hit", "resolve_impacts"]
 
 # PGS velocity tolerance of a collision with a rebound, relative to the fastest approach.
 IMPACT_TOLERANCE = 1e-6
 
 
 @njit(allocates=False)
-def any_free_body(contact_ints, count, frozen, solved):
-    """Whether a contact has a body that is neither frozen nor moved by the contact stage
-    (``contact_ints`` and ``count`` of a ``ContactSet``: its bodies a and b come first)."""
+def may_have_hit(contact_ints, contact_floats, count, frozen, solved, thickness, slop_fraction):
+    """Whether a contact may be a hit (``find_hits``): one of its bodies flew freely through
+    the step (neither frozen nor moved by the contact stage), or one the contact stage moved
+    is deeper than the contact's slop, which a resting contact is not (``contact_ints``,
+    ``contact_floats``, ``count`` of a ``ContactSet``)."""
+    body_a, body_b, _, _, depths, _, _ = contact_views(contact_ints, contact_floats, count)
     for k in range(count):
-        a, b = contact_ints[k], contact_ints[count + k]
+        a, b = body_a[k], body_b[k]
+        if frozen[a] and frozen[b]:
+            continue
         if not (frozen[a] or solved[a]) or not (frozen[b] or solved[b]):
+            return True
+        if depths[k] > _slop(a, b, frozen, thickness, slop_fraction):
             return True
     return False
 
 
+@njit(inline="always")
+def _slop(a, b, static, thickness, slop_fraction):
+    """The slop of a contact between a and b: ``slop_fraction`` of its thinner moving body
+    (as ``contact_tolerances``)."""
+    thinnest = np.inf
+    if not static[a]:
+        thinnest = thickness[a]
+    if not static[b]:
+        thinnest = min(thinnest, thickness[b])
+    return slop_fraction * thinnest
+
+
 @njit
-def find_hits(count, static, movers, contact_ints, contact_floats, contact_count, position,
-              orientation, linear_momentum, angular_momentum, inverse_mass,
-              inverse_inertia_body):  # fmt: skip
-    """Contacts a body in free flight ran into during the step: it penetrates (depth > 0)
-    and approaches.
+def find_hits(count, static, movers, solved, contact_ints, contact_floats, contact_count,
+              position, orientation, linear_momentum, angular_momentum, inverse_mass,
+              inverse_inertia_body, thickness, slop_fraction):  # fmt: skip
+    """Contacts a moving body ran into during the step: it penetrates (depth > 0) and
+    approaches. A body the contact stage moved (``solved``) ran into the other only where the
+    contact is deeper than its slop: within it, it is a contact the body rests on.
 
     A penetrating contact of a body in free flight that does not approach is *receding*: the
     body either touched the other at the start of the step already and is leaving it, or it
@@ -107,6 +127,9 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
         a, b = body_a[k], body_b[k]
         if not (movers[a] or movers[b]) or depths[k] <= 0.0:
             continue
+        flew = (movers[a] and not solved[a]) or (movers[b] and not solved[b])
+        if not flew and depths[k] <= _slop(a, b, static, thickness, slop_fraction):
+            continue
         hits[k] = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w) < 0.0
         receding[k] = not hits[k]
     return hits, receding, v, w
@@ -114,7 +137,8 @@ def find_hits(count, static, movers, contact_ints, contact_floats, contact_count
 
 @njit
 def resolve_impacts(
-    settings, polygon, count, static, rewind, contact_ints, contact_floats, contact_count,
+    settings, polygon, count, static, solved, rewind, contact_ints, contact_floats,
+    contact_count,
     position, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force, impulse,
@@ -125,6 +149,9 @@ def resolve_impacts(
     ----------
     settings, polygon, count, static
         As ``resting_contact.solve_contacts``.
+    solved : (>= n,) bool
+        Bodies the contact stage moved: their velocities hold the step's forces already, so
+        no force acts on them over the rest of the step.
     rewind : (>= n,) float64
         How far each body was stepped back (0: not).
     contact_ints, contact_floats, contact_count
@@ -168,6 +195,11 @@ def resolve_impacts(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body, inverse_inertia, external_force, drag, pf_start, pf_arm, pf_force,
     )  # fmt: skip
+    for i in range(n):
+        if solved[i]:
+            for a in range(3):
+                acceleration[i, a] = 0.0
+                alpha[i, a] = 0.0
 
     # 1. the collision at the time of impact
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
@@ -208,7 +240,8 @@ def resolve_impacts(
 
     # 3. the bodies carried to the end of the step
     stats[BAD_BODY] = _carry_to_end_of_step(
-        n, static, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position, orientation,
+        n, static, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position,
+        orientation,
         linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
         external_force, drag, pf_start, pf_arm, pf_force,
     )  # fmt: skip
@@ -323,9 +356,9 @@ def _collision_terms(
 
 @njit(inline="always")
 def _carry_to_end_of_step(
-    n, static, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position, orientation,
-    linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
-    external_force, drag, pf_start, pf_arm, pf_force,
+    n, static, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position,
+    orientation, linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
+    inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
 ):  # fmt: skip
     """Write the islands' momenta and move their stepped-back bodies to the end of the step;
     returns the first body whose momenta are not finite (-1: none).
@@ -371,9 +404,10 @@ def _carry_to_end_of_step(
                 i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
                 inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
             )  # fmt: skip
+            torque_time = 0.0 if solved[i] else t  # a solved body's L holds its torques
             for a in range(3):
                 linear_momentum[i, a] = v[i, a] / inverse_mass[i]
-                angular_momentum[i, a] += t * T[a]
+                angular_momentum[i, a] += torque_time * T[a]
         else:
             move_ballistic(
                 one, t, v, angular_momentum, inverse_inertia_body, still, position, orientation

@@ -119,7 +119,10 @@ def solve_islands(
     stats : (6,) int64
         ``contact_stats.STATS`` counters, updated.
     """
-    response_a, response_b = rows[2], rows[3]
+    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
+    solver = int(settings[cs.SOLVER])
+    iterations = int(settings[cs.ITERATIONS])
+    sides = polygon.shape[0] - 1
     v_start = v.copy()
     w_start = w.copy()
     for isl in range(island_start.shape[0] - 1):
@@ -135,97 +138,107 @@ def solve_islands(
         # only if they are the compression's answer: an island that rebounds is solved
         # exactly, when PGS has not converged, up to REBOUND_EXACT_CONTACTS contacts
         exact_limit = REBOUND_EXACT_CONTACTS if rebounds else int(settings[cs.EXACT_LIMIT])
-        _solve_island(
-            s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, bias, friction,
-            tolerance, inverse_mass, inverse_inertia, v, w, v_start, w_start, impulse, stats,
-            exact_limit,
-        )  # fmt: skip
-        if not rebounds:
-            continue
-        for k in range(s, e):
-            extra = bounce[k] * impulse[k, 0]
-            if extra > 0.0:
-                a, b = body_a[k], body_b[k]
-                for i in range(3):
-                    v[a, i] += inverse_mass[a] * extra * basis[k, 0, i]
-                    v[b, i] -= inverse_mass[b] * extra * basis[k, 0, i]
-                    w[a, i] += extra * response_a[k, 0, i]
-                    w[b, i] -= extra * response_b[k, 0, i]
-                impulse[k, 0] += extra
-        # no contact may approach after the rebound: an inelastic solve from there
-        held = np.where(np.isfinite(bias), 0.0, np.inf)
-        correction = np.zeros_like(impulse)
-        _solve_island(
-            s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, held, friction,
-            tolerance, inverse_mass, inverse_inertia, v, w, v.copy(), w.copy(), correction,
-            stats, exact_limit,
-        )  # fmt: skip
-        for k in range(s, e):
-            for d in range(3):
-                impulse[k, d] += correction[k, d]
+        # pass 0 solves the island; after a rebound, pass 1 solves it again inelastically
+        # from the velocities the rebound left, so that no contact approaches after it
+        row_bias, answer = bias, impulse
+        for rebound_pass in range(2 if rebounds else 1):
+            if rebound_pass == 1:
+                _add_restitution(
+                    s, e, bounce, body_a, body_b, basis, response_a, response_b, inverse_mass,
+                    v, w, impulse, v_start, w_start,
+                )  # fmt: skip
+                row_bias = np.where(np.isfinite(bias), 0.0, np.inf)
+                answer = np.zeros_like(impulse)
+            exact = solver == 2
+            if not exact:
+                if e - s >= SUBSPACE_CONTACTS:
+                    sweeps, converged = sweep_with_subspace_steps(
+                        s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
+                        inverse_mass, row_bias, friction, v, w, answer,
+                    )  # fmt: skip
+                else:
+                    sweeps, converged = sweep_island(
+                        s, e, iterations, tolerance, polygon, body_a, body_b, basis,
+                        angular_a, angular_b, response_a, response_b, normal_step,
+                        tangent_step, coupling, inverse_mass, row_bias, friction, v, w, answer,
+                    )  # fmt: skip
+                stats[SWEEPS] += sweeps
+                stats[MAX_SWEEPS] = max(stats[MAX_SWEEPS], sweeps)
+                if not converged:
+                    if solver == 0 and e - s <= exact_limit:
+                        exact = True
+                    else:
+                        stats[UNCONVERGED] += 1
+            if exact:
+                _solve_island_exactly(
+                    s, e, settings, sides, body_a, body_b, arm_a, arm_b, basis, row_bias,
+                    friction, tolerance, inverse_mass, inverse_inertia, v, w, v_start,
+                    w_start, answer, stats,
+                )  # fmt: skip
+            if rebound_pass == 1:
+                for k in range(s, e):
+                    for d in range(3):
+                        impulse[k, d] += answer[k, d]
 
 
 @njit(inline="always")
-def _solve_island(
-    s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, rows, bias, friction,
-    tolerance, inverse_mass, inverse_inertia, v, w, v_start, w_start, impulse, stats,
-    exact_limit,
+def _add_restitution(
+    s, e, bounce, body_a, body_b, basis, response_a, response_b, inverse_mass, v, w, impulse,
+    v_start, w_start,
 ):  # fmt: skip
-    """The velocity problem of the island ``s:e`` by PGS (with subspace steps on a big
-    island), or exactly (``v_start``, ``w_start``: the velocities before its impulses): as
-    the settings ask, or ("auto") when PGS has not converged on at most ``exact_limit``
-    contacts."""
-    angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
-    solver = int(settings[cs.SOLVER])
-    iterations = int(settings[cs.ITERATIONS])
-    sides = polygon.shape[0] - 1
-    exact = solver == 2
-    if not exact:
-        if e - s >= SUBSPACE_CONTACTS:
-            sweeps, converged = sweep_with_subspace_steps(
-                s, e, iterations, tolerance, polygon, body_a, body_b, basis, rows,
-                inverse_mass, bias, friction, v, w, impulse,
-            )  # fmt: skip
-        else:
-            sweeps, converged = sweep_island(
-                s, e, iterations, tolerance, polygon, body_a, body_b, basis, angular_a,
-                angular_b, response_a, response_b, normal_step, tangent_step, coupling,
-                inverse_mass, bias, friction, v, w, impulse,
-            )  # fmt: skip
-        stats[SWEEPS] += sweeps
-        stats[MAX_SWEEPS] = max(stats[MAX_SWEEPS], sweeps)
-        if not converged:
-            if solver == 0 and e - s <= exact_limit:
-                exact = True
-            else:
-                stats[UNCONVERGED] += 1
-    if exact:
-        velocity_scale = 0.0
-        for k in range(s, e):  # back to the velocities before this island's impulses
-            velocity_scale = max(velocity_scale, tolerance[k] / settings[cs.TOLERANCE])
-            for i in (body_a[k], body_b[k]):
-                for a in range(3):
-                    v[i, a] = v_start[i, a]
-                    w[i, a] = w_start[i, a]
-        # contacts with an infinite bias can never bind: they stay out of the LCP
-        taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
-        for k in range(s, e):
-            for d in range(3):
-                impulse[k, d] = 0.0
-        frame = (
-            body_a[taking_part], body_b[taking_part], arm_a[taking_part],
-            arm_b[taking_part], basis[taking_part],
-        )  # fmt: skip
-        answer = np.zeros((taking_part.shape[0], 3))
-        status = solve_exact(
-            sides, frame, bias[taking_part], friction[taking_part],
-            (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
-        )  # fmt: skip
-        for idx in range(taking_part.shape[0]):
-            for d in range(3):
-                impulse[taking_part[idx], d] = answer[idx, d]
-        stats[EXACT_ISLANDS] += 1
-        stats[UNCONVERGED] += status != 0
+    """Add e times each contact's compression impulse of the island ``s:e`` to its impulse
+    and to the velocities; the island's velocities after it become its ``v_start``,
+    ``w_start`` (where an exact solve of the next pass starts)."""
+    for k in range(s, e):
+        extra = bounce[k] * impulse[k, 0]
+        if extra > 0.0:
+            a, b = body_a[k], body_b[k]
+            for i in range(3):
+                v[a, i] += inverse_mass[a] * extra * basis[k, 0, i]
+                v[b, i] -= inverse_mass[b] * extra * basis[k, 0, i]
+                w[a, i] += extra * response_a[k, 0, i]
+                w[b, i] -= extra * response_b[k, 0, i]
+            impulse[k, 0] += extra
+    for k in range(s, e):
+        for i in (body_a[k], body_b[k]):
+            for a in range(3):
+                v_start[i, a] = v[i, a]
+                w_start[i, a] = w[i, a]
+
+
+@njit
+def _solve_island_exactly(
+    s, e, settings, sides, body_a, body_b, arm_a, arm_b, basis, bias, friction, tolerance,
+    inverse_mass, inverse_inertia, v, w, v_start, w_start, impulse, stats,
+):  # fmt: skip
+    """The island ``s:e`` by Lemke's method, from the velocities before its impulses
+    (``v_start``, ``w_start``); its impulses replaced by the answer."""
+    velocity_scale = 0.0
+    for k in range(s, e):  # back to the velocities before this island's impulses
+        velocity_scale = max(velocity_scale, tolerance[k] / settings[cs.TOLERANCE])
+        for i in (body_a[k], body_b[k]):
+            for a in range(3):
+                v[i, a] = v_start[i, a]
+                w[i, a] = w_start[i, a]
+    # contacts with an infinite bias can never bind: they stay out of the LCP
+    taking_part = np.arange(s, e)[np.isfinite(bias[s:e])]
+    for k in range(s, e):
+        for d in range(3):
+            impulse[k, d] = 0.0
+    frame = (
+        body_a[taking_part], body_b[taking_part], arm_a[taking_part], arm_b[taking_part],
+        basis[taking_part],
+    )  # fmt: skip
+    answer = np.zeros((taking_part.shape[0], 3))
+    status = solve_exact(
+        sides, frame, bias[taking_part], friction[taking_part],
+        (v, w, inverse_mass, inverse_inertia), answer, velocity_scale,
+    )  # fmt: skip
+    for idx in range(taking_part.shape[0]):
+        for d in range(3):
+            impulse[taking_part[idx], d] = answer[idx, d]
+    stats[EXACT_ISLANDS] += 1
+    stats[UNCONVERGED] += status != 0
 
 
 @njit(separate=True)

@@ -140,8 +140,9 @@ def solve_contacts(
     )
 
     rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
-    impact = np.zeros((c, 3))
-    if np.any(bounce > 0.0):
+    had_impact = _any_positive(bounce)
+    impact = np.zeros((c if had_impact else 0, 3))
+    if had_impact:
         # an impact: resolved first, on the velocities before the forces, so that only its
         # own impulses rebound (a resting contact's share of the forces must not); then the
         # forces act on the velocities it left, and the contacts are solved as at rest
@@ -170,7 +171,8 @@ def solve_contacts(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
         relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
     )  # fmt: skip
-    lam += impact
+    if had_impact:
+        lam += impact
     stats[SWEEPS] += correct_positions(
         settings, island_start, sa, sb, basis, rows, push, tolerance, movable_mass, position,
         orientation,
@@ -265,6 +267,15 @@ def _contact_terms(
 
 
 @njit(inline="always")
+def _any_positive(values):
+    """Whether any of ``values`` (c,) is above zero (without the temporary of np.any)."""
+    for k in range(values.shape[0]):
+        if values[k] > 0.0:
+            return True
+    return False
+
+
+@njit(inline="always")
 def _impact_terms(island_start, bounce, depths, order, slop, sa, sb, restitution):
     """The rows' ``bias`` and ``bounce`` (c,) of the impact: in an island where a contact
     approaches fast (``bounce`` > 0), every touching contact takes part with bias 0 and
@@ -276,7 +287,7 @@ def _impact_terms(island_start, bounce, depths, order, slop, sa, sb, restitution
     impact_bounce = np.zeros(c)
     for isl in range(island_start.shape[0] - 1):
         s, e = island_start[isl], island_start[isl + 1]
-        if not np.any(bounce[s:e] > 0.0):
+        if not _any_positive(bounce[s:e]):
             continue
         for k in range(s, e):
             if depths[order[k]] >= -slop[k]:

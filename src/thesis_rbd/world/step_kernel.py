@@ -36,8 +36,9 @@ from thesis_rbd.collision.broad_phase.bounds import (
 )
 from thesis_rbd.collision.convex.contacts import find_convex_contacts
 from thesis_rbd.dynamics.bodies import copy_state
+from thesis_rbd.dynamics.contact_settings import SLOP
 from thesis_rbd.dynamics.contact_stats import BAD_BODY
-from thesis_rbd.dynamics.impacts import any_free_body
+from thesis_rbd.dynamics.impacts import may_have_hit
 from thesis_rbd.dynamics.integrators import integrate_bodies
 from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.world.stage_names import STAGE_NAMES
@@ -262,15 +263,24 @@ def run_steps(
             if stage <= TUNNELLING and planned[TUNNELLING] and awake and fast_count > 0:
                 stop = TUNNELLING
                 break
-        if (
-            stage <= TIME_OF_IMPACT
-            and planned[TIME_OF_IMPACT]
-            and awake
-            and contacts[2] > 0
-            and any_free_body(contacts[0], contacts[2], frozen, solved)
-        ):
-            stop = TIME_OF_IMPACT
-            break
+        if contact_group is not None:  # the time of impact is planned with a response only
+            if (
+                stage <= TIME_OF_IMPACT
+                and planned[TIME_OF_IMPACT]
+                and awake
+                and contacts[2] > 0
+                and may_have_hit(
+                    contacts[0],
+                    contacts[1],
+                    contacts[2],
+                    frozen,
+                    solved,
+                    thickness,
+                    settings[SLOP],
+                )
+            ):
+                stop = TIME_OF_IMPACT
+                break
         if stage <= IMPACTS and planned[IMPACTS] and rewound:
             stop = IMPACTS
             break

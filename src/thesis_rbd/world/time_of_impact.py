@@ -42,29 +42,37 @@ HALVINGS = 12
 
 @njit
 def impact_groups(body_count, body_a, body_b, hits, movers):
-    """Group the movers of the contacts ``hits`` (c,) bool that join them.
+    """Group the movers that go back in time together: those joined by a contact to a mover
+    of a hit contact (``hits`` (c,) bool), directly or through other movers.
 
-    Returns ``group`` (n,) int64: the group of each mover in a hit contact, -1 elsewhere, and
-    the number of groups. Bodies that are not movers (static, resting, solved this step) are
-    obstacles: they join nothing.
+    Movers in contact move together over the step (two touching cubes flying into a third):
+    stepping one back to its time of impact and not the other would leave them overlapping.
+    Returns ``group`` (n,) int64: the group of each such mover, -1 elsewhere, and the number
+    of groups. Bodies that are not movers (static, resting) are obstacles: they join nothing.
     """
     parent = np.arange(body_count)
     for k in range(body_a.shape[0]):
-        if hits[k] and movers[body_a[k]] and movers[body_b[k]]:
+        if movers[body_a[k]] and movers[body_b[k]]:
             join(parent, body_a[k], body_b[k])
+    hit_root = np.zeros(body_count, np.bool_)
+    for k in range(body_a.shape[0]):
+        if hits[k]:
+            for i in (body_a[k], body_b[k]):
+                if movers[i]:
+                    hit_root[find_root(parent, i)] = True
     label = np.full(body_count, -1)
     group = np.full(body_count, -1)
     groups = 0
-    for k in range(body_a.shape[0]):
-        if not hits[k]:
+    for i in range(body_count):
+        if not movers[i]:
             continue
-        for i in (body_a[k], body_b[k]):
-            if movers[i]:
-                r = find_root(parent, i)
-                if label[r] < 0:
-                    label[r] = groups
-                    groups += 1
-                group[i] = label[r]
+        r = find_root(parent, i)
+        if not hit_root[r]:
+            continue
+        if label[r] < 0:
+            label[r] = groups
+            groups += 1
+        group[i] = label[r]
     return group, groups
 
 

@@ -42,7 +42,7 @@ from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
-from thesis_rbd.dynamics.contact_settings import ContactSettings
+from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION, ContactSettings
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, STATS
 from thesis_rbd.dynamics.forces import (
     AppliedForces,
@@ -563,18 +563,21 @@ class World(WorldReadout):
         """Bodies in free flight that ran into something go back to when they touched."""
         b, c, detector = self.bodies, s.contacts, self._collision
         n = b.count
-        movers = ~(s.frozen | s.solved[:n])
+        # every moving body: one the contact stage moved can run into something too
+        movers = ~s.frozen[:n]
         state, masses = self._kernel_bodies[:4], self._kernel_bodies[4:6]
         hits, receding, v, _ = find_hits(
-            n, s.frozen, movers, c.ints, c.floats, c.count, *state, *masses
-        )
+            n, s.frozen, movers, s.solved, c.ints, c.floats, c.count, *state, *masses,
+            b.full("thickness"), SLOP_FRACTION,
+        )  # fmt: skip
         if receding.any():
             hits |= passed_through(
                 detector, c, receding, s.start_position, s.start_orientation, s.convex_cache
             )
         if not hits.any():
             return s
-        acceleration = s.external_force * b.inverse_mass[:, None]
+        # a body the contact stage moved has its forces in its velocity already
+        acceleration = np.where(s.solved[:n, None], 0.0, s.external_force * b.inverse_mass[:, None])
         rewind, contacts = step_back_to_impact(
             detector, b, c, hits, movers, v, acceleration, self.dt, s.convex_cache
         )
@@ -589,7 +592,7 @@ class World(WorldReadout):
         impulses = np.zeros((c.count, 3))
         settings, polygon, _ = self._contact_group
         stats, resolved = resolve_impacts(
-            settings, polygon, b.count, s.frozen, s.rewind, c.ints, c.floats, c.count,
+            settings, polygon, b.count, s.frozen, s.solved, s.rewind, c.ints, c.floats, c.count,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
             pf.force, impulses,
         )  # fmt: skip
