@@ -56,20 +56,36 @@ __all__ = ["IMPACT_TOLERANCE", "find_hits", "may_have_hit", "resolve_impacts"]
 IMPACT_TOLERANCE = 1e-6
 
 
-@njit(allocates=False)
-def may_have_hit(contact_ints, contact_floats, count, frozen, solved, thickness, slop_fraction):
+@njit(inline="always")
+def may_have_hit(
+    contact_ints, contact_floats, count, frozen, solved, thickness, slop_fraction, body_count,
+    position, start_position,
+):  # fmt: skip
     """Whether a contact may be a hit (``find_hits``): one of its bodies flew freely through
     the step (neither frozen nor moved by the contact stage), or one the contact stage moved
     is deeper than the contact's slop, which a resting contact is not (``contact_ints``,
-    ``contact_floats``, ``count`` of a ``ContactSet``)."""
-    body_a, body_b, _, _, depths, _, _ = contact_views(contact_ints, contact_floats, count)
+    ``contact_floats``, ``count`` of a ``ContactSet``; the fields read straight from the
+    packed layout, every step). A body the contact stage moved by less than half its slop
+    (``position`` against ``start_position``, (n, 3)) cannot have run into anything: a
+    resting scene answers from its bodies, without reading its contacts' depths."""
     for k in range(count):
-        a, b = body_a[k], body_b[k]
-        if frozen[a] and frozen[b]:
-            continue
+        a, b = contact_ints[k], contact_ints[count + k]
         if not (frozen[a] or solved[a]) or not (frozen[b] or solved[b]):
             return True
-        if depths[k] > _slop(a, b, frozen, thickness, slop_fraction):
+    for i in range(body_count):
+        if solved[i] and not frozen[i]:
+            moved2 = 0.0
+            for d in range(3):
+                moved2 += (position[i, d] - start_position[i, d]) ** 2
+            if moved2 > (0.5 * slop_fraction * thickness[i]) ** 2:
+                break
+    else:
+        return False
+    for k in range(count):
+        a, b = contact_ints[k], contact_ints[count + k]
+        if frozen[a] and frozen[b]:
+            continue
+        if contact_floats[6 * count + k] > _slop(a, b, frozen, thickness, slop_fraction):
             return True
     return False
 

@@ -264,23 +264,14 @@ def run_steps(
                 stop = TUNNELLING
                 break
         if contact_group is not None:  # the time of impact is planned with a response only
-            if (
-                stage <= TIME_OF_IMPACT
-                and planned[TIME_OF_IMPACT]
-                and awake
-                and contacts[2] > 0
-                and may_have_hit(
-                    contacts[0],
-                    contacts[1],
-                    contacts[2],
-                    frozen,
-                    solved,
-                    thickness,
-                    settings[SLOP],
-                )
-            ):
-                stop = TIME_OF_IMPACT
-                break
+            if stage <= TIME_OF_IMPACT and planned[TIME_OF_IMPACT] and awake and contacts[2] > 0:
+                hit = may_have_hit(
+                    contacts[0], contacts[1], contacts[2], frozen, solved, thickness,
+                    settings[SLOP], count, position, start_position,
+                )  # fmt: skip
+                if hit:
+                    stop = TIME_OF_IMPACT
+                    break
         if stage <= IMPACTS and planned[IMPACTS] and rewound:
             stop = IMPACTS
             break
