@@ -313,14 +313,11 @@ class CollisionPipeline:
             mover = i if fast[i] else j
             if mover in caught_at:
                 continue
-            q0 = start_orientation[mover] * np.sign(
-                start_orientation[mover] @ end_orientation[mover]
-            )
             travel = np.linalg.norm(end_position[mover] - start_position[mover])
             samples = int(min(np.ceil(travel / (0.5 * thickness[mover])), _MOST_SAMPLES))
             for fraction in np.arange(1, samples) / samples:
-                _place_between(mover, fraction, q0, start_position, end_position,
-                               end_orientation, position, orientation)  # fmt: skip
+                _place_between(mover, fraction, start_position, start_orientation,
+                               end_position, end_orientation, position, orientation)  # fmt: skip
                 if self.intersects(np.array([[i, j]]), position, orientation, cache):
                     caught_at[mover] = fraction
                     break
@@ -330,9 +327,8 @@ class CollisionPipeline:
         # together): it is caught at the same fraction of its own motion
         companions = _bodies_joined(caught_at, contacts, fast)
         for body, fraction in companions.items():
-            q0 = start_orientation[body] * np.sign(start_orientation[body] @ end_orientation[body])
-            _place_between(body, fraction, q0, start_position, end_position, end_orientation,
-                           position, orientation)  # fmt: skip
+            _place_between(body, fraction, start_position, start_orientation, end_position,
+                           end_orientation, position, orientation)  # fmt: skip
         caught = np.array(sorted({**caught_at, **companions}), np.int64)
         if not len(caught):
             return contacts, caught, position[caught], orientation[caught]
@@ -366,11 +362,12 @@ class CollisionPipeline:
         )  # fmt: skip
 
 
-def _place_between(body, fraction, q0, start_position, end_position, end_orientation,
-                   position, orientation):  # fmt: skip
+def _place_between(body, fraction, start_position, start_orientation, end_position,
+                   end_orientation, position, orientation):  # fmt: skip
     """Put ``body`` at ``fraction`` of its motion over the step: the position interpolated,
-    the orientation normalised-lerped from ``q0`` (its start, on the end's hemisphere)."""
+    the orientation normalised-lerped from its start (taken on the end's hemisphere)."""
     position[body] = (1 - fraction) * start_position[body] + fraction * end_position[body]
+    q0 = start_orientation[body] * np.sign(start_orientation[body] @ end_orientation[body])
     q = (1 - fraction) * q0 + fraction * end_orientation[body]
     orientation[body] = q / np.linalg.norm(q)
 

@@ -17,6 +17,7 @@ from thesis_rbd.spatial.quaternion import to_matrix_into
 __all__ = [
     "body_velocities",
     "contact_arms",
+    "contact_slop",
     "contact_tolerances",
     "normal_velocity",
     "write_momenta",
@@ -29,14 +30,20 @@ def contact_tolerances(body_a, body_b, static, thickness, slop_fraction):
     c = body_a.shape[0]
     slop = np.empty(c)
     for k in range(c):
-        a, b = body_a[k], body_b[k]
-        thinnest = np.inf
-        if not static[a]:
-            thinnest = thickness[a]
-        if not static[b]:
-            thinnest = min(thinnest, thickness[b])
-        slop[k] = slop_fraction * thinnest
+        slop[k] = contact_slop(body_a[k], body_b[k], static, thickness, slop_fraction)
     return slop
+
+
+@njit(inline="always")
+def contact_slop(a, b, static, thickness, slop_fraction):
+    """The slop of one contact between bodies a and b: ``slop_fraction`` of its thinner
+    dynamic body (inf between two static bodies)."""
+    thinnest = np.inf
+    if not static[a]:
+        thinnest = thickness[a]
+    if not static[b]:
+        thinnest = min(thinnest, thickness[b])
+    return slop_fraction * thinnest
 
 
 @njit

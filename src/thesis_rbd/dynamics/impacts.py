@@ -38,6 +38,7 @@ from thesis_rbd.dynamics.ballistic import move_ballistic
 from thesis_rbd.dynamics.contact_kinematics import (
     body_velocities,
     contact_arms,
+    contact_slop,
     contact_tolerances,
     normal_velocity,
     write_momenta,
@@ -83,23 +84,9 @@ def may_have_hit(
         return False
     for k in range(count):
         a, b = contact_ints[k], contact_ints[count + k]
-        if frozen[a] and frozen[b]:
-            continue
-        if contact_floats[6 * count + k] > _slop(a, b, frozen, thickness, slop_fraction):
+        if contact_floats[6 * count + k] > contact_slop(a, b, frozen, thickness, slop_fraction):
             return True
     return False
-
-
-@njit(inline="always")
-def _slop(a, b, static, thickness, slop_fraction):
-    """The slop of a contact between a and b: ``slop_fraction`` of its thinner moving body
-    (as ``contact_tolerances``)."""
-    thinnest = np.inf
-    if not static[a]:
-        thinnest = thickness[a]
-    if not static[b]:
-        thinnest = min(thinnest, thickness[b])
-    return slop_fraction * thinnest
 
 
 @njit
@@ -144,7 +131,7 @@ def find_hits(count, static, movers, solved, contact_ints, contact_floats, conta
         if not (movers[a] or movers[b]) or depths[k] <= 0.0:
             continue
         flew = (movers[a] and not solved[a]) or (movers[b] and not solved[b])
-        if not flew and depths[k] <= _slop(a, b, static, thickness, slop_fraction):
+        if not flew and depths[k] <= contact_slop(a, b, static, thickness, slop_fraction):
             continue
         hits[k] = normal_velocity(k, a, b, normals, arm_a, arm_b, v, w) < 0.0
         receding[k] = not hits[k]
