@@ -93,8 +93,8 @@ def row_world(shape, count, e, on_floor):
 def test_a_row_of_touching_bodies_takes_the_impact(shape, count, e, on_floor):
     """The impact resolves in the step it happens: momentum along x kept to 1e-12 (nothing
     acts along x), kinetic energy (less the vertical motion the floor holds against gravity)
-    never above its value before the impact, and every body of the row moving by the step
-    after the impact."""
+    never above its value before the impact, every body of the row moving by the step after
+    the impact, and no contact deeper than 1 % of a body (the suite's contact bound)."""
     world, bodies = row_world(shape, count, e, on_floor)
     mass = 0.2
     momentum0 = mass * SPEED
@@ -102,6 +102,7 @@ def test_a_row_of_touching_bodies_takes_the_impact(shape, count, e, on_floor):
     impact_step, most_energy, steps = None, 0.0, round(0.5 / DT)
     for step in range(steps):
         world.step()
+        assert world.contacts["depths"].max(initial=0.0) <= 0.01 * SIZE
         velocity = np.array([world.linear_velocity(b) for b in bodies])
         momentum = mass * velocity[:, 0].sum()
         assert momentum == pytest.approx(momentum0, rel=1e-12)
@@ -197,3 +198,22 @@ def test_two_touching_plates_land_on_a_plate_in_their_order():
     assert deepest <= 0.01 * 0.001
     heights = [world.position(b)[2] for b in bodies]
     np.testing.assert_allclose(heights, [0.0005, 0.0015, 0.0025], atol=0.01 * 0.001)
+
+
+def test_ten_plates_dropped_one_above_another_stack_in_their_order():
+    """Ten 1 m x 1 m x 1 mm plates 1 mm apart fall onto a floor: each lands on the one below
+    within the step after that one landed (the impacts of one step come in rounds), so no
+    contact is deeper than 1 % of a plate, and the stack ends 0.5 / 1.5 / ... / 9.5 mm."""
+    world = rbd.World(dt=DT, gravity=(0, 0, -G))
+    world.add_body(rbd.shapes.box((4.0, 4.0, 0.2)), static=True, position=(0, 0, -0.1))
+    plate = rbd.shapes.box((1.0, 1.0, 0.001))
+    bodies = [
+        world.add_body(plate, mass=1.0, position=(0, 0, 0.0005 + 0.002 * k)) for k in range(10)
+    ]
+    deepest = 0.0
+    for _ in range(round(2.0 / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+    assert deepest <= 0.01 * 0.001
+    heights = [world.position(b)[2] for b in bodies]
+    np.testing.assert_allclose(heights, 0.0005 + 0.001 * np.arange(10), atol=0.01 * 0.001)

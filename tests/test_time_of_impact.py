@@ -104,8 +104,8 @@ def test_the_kernel_finds_the_moment_of_first_contact(shape, size, speed, spin, 
 
     v_kernel = v.copy()
     t = bisect_to_contact(
-        np.array([body]), np.array([[0, body]]), v_kernel, L, Ii, acceleration,
-        bodies.full("position"), bodies.full("orientation"), DT,
+        np.array([body]), np.array([[0, body]]), np.zeros((0, 2), np.int64), np.zeros(0),
+        v_kernel, L, Ii, acceleration, bodies.full("position"), bodies.full("orientation"), DT,
         bodies.full("center_of_mass_local"), detector.touch_inputs(world._state.convex_cache),
     )  # fmt: skip
 

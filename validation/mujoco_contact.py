@@ -13,6 +13,7 @@ MuJoCo quaternions are (w, x, y, z); the scenes here give (x, y, z, w), reordere
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 __all__ = ["MujocoScene", "require_mujoco"]
 
@@ -47,9 +48,11 @@ class MujocoScene:
         Time step (s).
     gravity : float
         Magnitude of g along -z.
-    bodies : list of (shape, size, mass, position, orientation, friction)
+    bodies : list of (shape, size, mass, position, orientation, friction, linear_velocity,
+        angular_velocity)
         ``shape`` "box" (``size`` the (3,) half extents) or "sphere" (``size`` (radius,));
-        ``mass`` None for a static body (a geom of the world body); orientation (x, y, z, w).
+        ``mass`` None for a static body (a geom of the world body); orientation (x, y, z, w);
+        the velocities (3,) in the world frame, those of a static body ignored.
     """
 
     def __init__(self, dt: float, gravity: float, bodies):
@@ -58,7 +61,10 @@ class MujocoScene:
         parts = []
         # MuJoCo body id of each given body (0, the world body, for static ones)
         self._body_id = []
-        for shape, size, mass, position, orientation, friction in bodies:
+        velocities = []
+        for shape, size, mass, position, orientation, friction, v, w in bodies:
+            if mass is not None:
+                velocities.append((orientation, v, w))
             self._body_id.append(0 if mass is None else 1 + sum(i > 0 for i in self._body_id))
             geom = (
                 f'<geom type="{shape}" size="{_vector(size)}" friction="{float(friction)!r}"'
@@ -76,6 +82,11 @@ class MujocoScene:
         )
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.data = mujoco.MjData(self.model)
+        # a free joint's velocity: the linear one in the world frame, the angular one in the
+        # body's
+        for k, (orientation, v, w) in enumerate(velocities):
+            turn = Rotation.from_quat(orientation)
+            self.data.qvel[6 * k : 6 * k + 6] = [*v, *turn.inv().apply(w)]
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:

@@ -17,6 +17,11 @@ METHOD_STYLES = {
     "symplectic_euler": {"color": "tab:orange", "marker": "s", "label": "symplectic Euler"},
     "midpoint": {"color": "tab:green", "marker": "^", "label": "midpoint (RK2)"},
     "rk4": {"color": "tab:blue", "marker": "D", "label": "RK4"},
+    "verlet": {
+        "color": "tab:cyan",
+        "marker": "P",
+        "label": "velocity Verlet, free turn (default)",
+    },
     "pybullet_multibody": {
         "color": "black",
         "marker": "x",

@@ -10,9 +10,10 @@ other, alternating which goes first::
     python -m validation.step_comparison /tmp/before [--runs 7]
 
 Scenes are the step benchmark's (:mod:`validation.bench_step`): one cube, ten cubes, the
-15-row pyramid, the 256-cube pile and the 1000-cube grid, kept awake; plus the one cube
-stepped one step per call (the per-call overhead of a small scene). Both worlds settle first
-(compiling every kernel), then each run times the same number of steps in each. The queries
+15-row pyramid, the 256-cube pile (three pours: a pile is chaotic) and the 1000-cube grid,
+kept awake; plus the one cube stepped one step per call (the per-call overhead of a small
+scene). Both worlds settle first (compiling every kernel), then each run times the same
+number of steps in each. The queries
 are the query benchmark's (:mod:`validation.bench_queries`): ``distance`` along the tori path,
 ``collide`` in each mode along it, ``collide_batch`` over it and over 10000 random poses, and
 4000 rays at a torus. The ratio after / before per run, and its median over the runs, are
@@ -42,6 +43,8 @@ WORKLOADS = {
     "ten_cubes": ("ten_cubes", 20, 200),
     "pyramid_15": ("pyramid_15", 1, 200),
     "pile_256": ("pile_256", 1, 100),
+    "pile_256_seed2": ("pile_256_seed2", 1, 100),
+    "pile_256_seed3": ("pile_256_seed3", 1, 100),
     "grid_1000": ("grid_1000", 1, 100),
 }
 

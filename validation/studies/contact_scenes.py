@@ -23,17 +23,23 @@ __all__ = [
     "build_world",
     "card_house",
     "cube_stack",
+    "drifting_pair",
     "dropped_plate",
+    "dropped_rod",
     "elastic_pile",
     "floor",
     "heavy_on_light",
+    "plate_column",
     "poured_pile",
     "pyramid",
     "resting_grid",
     "resting_row",
     "scale_ball",
     "scale_column",
+    "struck_row",
     "thin_plate",
+    "touching_pair_strike",
+    "wall_slide",
 ]
 
 G = 9.81
@@ -156,7 +162,18 @@ def build_mujoco(spec: SceneSpec, dt: float):
     shapes = []
     for body in spec.bodies:
         size = 0.5 * np.asarray(body.size) if body.shape == "box" else np.asarray(body.size)
-        shapes.append((body.shape, size, body.mass, body.position, body.orientation, body.friction))
+        shapes.append(
+            (
+                body.shape,
+                size,
+                body.mass,
+                body.position,
+                body.orientation,
+                body.friction,
+                body.linear_velocity,
+                body.angular_velocity,
+            )
+        )
     return MujocoScene(dt, spec.gravity, shapes)
 
 
@@ -371,3 +388,104 @@ def poured_pile(
             BodySpec("box", (1.0, 1.0, 1.0), 1.0, (x, y, 1.0 + spacing * layer), orientation)
         )
     return SceneSpec(bodies)
+
+
+# The hard cases of issue 33: scenes a new user builds in the first hour, each with an answer
+# from physics or geometry (see the stability suite).
+
+
+def struck_row(count: int = 5, speed: float = 2.0, restitution: float = 0.5) -> SceneSpec:
+    """Zero gravity: a 0.1 m box of 0.2 kg at ``speed`` m/s along +x into a row of ``count``
+    such boxes at rest touching face to face (frictionless, ``restitution`` everywhere). The
+    striker is body 1 of the spec's dynamic bodies, the row's far end the last."""
+    edge, mass = 0.1, 0.2
+    striker = BodySpec(
+        "box",
+        (edge, edge, edge),
+        mass,
+        (-1.5 * edge, 0.0, 0.0),
+        linear_velocity=(speed, 0.0, 0.0),
+        restitution=restitution,
+        friction=0.0,
+    )
+    row = [
+        BodySpec(
+            "box",
+            (edge, edge, edge),
+            mass,
+            (edge * i, 0.0, 0.0),
+            restitution=restitution,
+            friction=0.0,
+        )
+        for i in range(count)
+    ]
+    return SceneSpec([striker, *row], gravity=0.0)
+
+
+def wall_slide(speed: float = 20.0, wall: float = 0.01) -> SceneSpec:
+    """A 0.1 m box of 1 kg sliding at ``speed`` m/s on a frictionless floor (so that it
+    touches the floor all along) into a static wall ``wall`` thick whose near face is at
+    x = 1 - wall / 2 (e = 0)."""
+    return SceneSpec(
+        [
+            BodySpec("box", (50.0, 2.0, 0.2), None, (0.0, 0.0, -0.1), friction=0.0),
+            BodySpec("box", (wall, 2.0, 1.0), None, (1.0, 0.0, 0.5), friction=0.0),
+            BodySpec(
+                "box",
+                (0.1, 0.1, 0.1),
+                1.0,
+                (0.0, 0.0, 0.05),
+                linear_velocity=(speed, 0.0, 0.0),
+                friction=0.0,
+            ),
+        ]
+    )
+
+
+def touching_pair_strike(speed: float = 300.0) -> SceneSpec:
+    """Zero gravity: two touching unit cubes of 1 kg at ``speed`` m/s along +x into a third
+    at rest 3 m ahead (at 300 m/s each moves 1.25 cubes a step at 240 Hz)."""
+    moving = dict(linear_velocity=(speed, 0.0, 0.0), friction=0.0)
+    return SceneSpec(
+        [
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (-3.0, 0.0, 0.0), **moving),
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (-2.0, 0.0, 0.0), **moving),
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (2.0, 0.0, 0.0), friction=0.0),
+        ],
+        gravity=0.0,
+    )
+
+
+def plate_column(count: int = 10, thickness: float = 1e-3, gap: float = 1e-3) -> SceneSpec:
+    """``count`` 1 m x 1 m plates ``thickness`` thick (1 kg) one above another ``gap``
+    apart, the lowest touching the floor, released: each lands on the one below."""
+    bodies = [floor(4.0)]
+    for k in range(count):
+        z = thickness / 2 + k * (thickness + gap)
+        bodies.append(BodySpec("box", (1.0, 1.0, thickness), 1.0, (0.0, 0.0, z)))
+    return SceneSpec(bodies)
+
+
+def dropped_rod(seed: int = 0) -> SceneSpec:
+    """A 1 x 1 x 20 cm rod of 0.1 kg dropped from 1 m in a random orientation (seeded) onto
+    a floor, e = 0 and no friction: nothing in the scene can add energy."""
+    orientation = tuple(Rotation.random(random_state=seed).as_quat())
+    return SceneSpec(
+        [
+            floor(4.0, friction=0.0),
+            BodySpec("box", (0.01, 0.01, 0.2), 0.1, (0.0, 0.0, 1.0), orientation, friction=0.0),
+        ]
+    )
+
+
+def drifting_pair(speed: float = 1e-3) -> SceneSpec:
+    """Zero gravity: two unit cubes 2 m apart drifting at ``speed`` m/s along +x, touching
+    nothing: nothing acts on them, so their momentum must stay."""
+    drift = dict(linear_velocity=(speed, 0.0, 0.0))
+    return SceneSpec(
+        [
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (0.0, 0.0, 0.0), **drift),
+            BodySpec("box", (1.0, 1.0, 1.0), 1.0, (0.0, 2.0, 0.0), **drift),
+        ],
+        gravity=0.0,
+    )

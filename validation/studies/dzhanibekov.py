@@ -28,7 +28,9 @@ TITLE = "Hard case: the Dzhanibekov flip (intermediate-axis instability)"
 EXTENTS = (1.0, 2.0, 3.0)
 MASS = 1.0
 OMEGA0 = (1e-3, 2.0 * math.pi, 1e-3)
-METHODS = ("symplectic_euler", "midpoint", "rk4", "pybullet_multibody", "pybullet_rigidbody")
+METHODS = (
+    "symplectic_euler", "midpoint", "rk4", "verlet", "pybullet_multibody", "pybullet_rigidbody",
+)  # fmt: skip
 FLIP_TIME_BOUND = 0.01  # s: largest flip-time error that passes
 CURVE_POINTS = 601
 
@@ -197,7 +199,7 @@ def _curves_figure(results, rate, figures_dir):
         alpha=0.5,
         label="reference (DOP853)",
     )
-    for method in ("rk4", "pybullet_multibody", "pybullet_rigidbody"):
+    for method in ("rk4", "verlet", "pybullet_multibody", "pybullet_rigidbody"):
         res = results[(method, rate)]
         style = dict(METHOD_STYLES[method], marker=None)
         ax.plot(res["curve_time"], res["curve_axis"], linewidth=1.2, **style)

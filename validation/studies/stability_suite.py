@@ -26,15 +26,33 @@ thesis_rbd and in pybullet, stepped at 240 Hz. pybullet runs each of them twice 
   floor) and ``heavy_on_light`` (100 kg on 1 kg, 1 mm); the mass-ratio stack also runs with
   the defaults.
 
-Free-flight cases use a 1 x 2 x 3 m box of 1 kg (RK4 against pybullet's default btMultiBody,
-damping 0):
+The hard cases a new user meets in the first hour (issue 33), each beside pybullet in both
+configurations and MuJoCo at its defaults (which does not carry restitution over: its
+contacts are soft):
+
+* ``struck_row``: zero gravity, a 0.1 m box at 2 m/s into five touching ones, e = 0.5: no
+  energy gained, momentum kept, and the far end at least as fast as the mean velocity P / M
+  (bodies of a row end ordered by speed);
+* ``wall_slide``: a 0.1 m box sliding at 20 m/s on a frictionless floor into a 1 cm wall;
+* ``touching_pair_strike``: zero gravity, two touching unit cubes at 300 m/s into a third;
+* ``plate_column``: ten 1 mm plates dropped 1 mm apart, which must end stacked in order;
+* ``dropped_rod``: a 1 x 1 x 20 cm rod dropped from 1 m, e = 0, no friction: no energy gain;
+* ``drifting_pair``: zero gravity, two cubes drifting at 1 mm/s with sleeping on: momentum
+  kept (a body in free flight must not fall asleep).
+
+Free-flight cases use a 1 x 2 x 3 m box of 1 kg (ours at its defaults against pybullet's
+default btMultiBody, damping 0):
 
 * ``high_spin``: 50 rad/s about the intermediate axis, slightly off it (it flips), 10 s;
 * ``long_run``: the tumbling box of the integrators study for 10^6 steps of 1/240 s (quick
-  10^5).
+  10^5);
+* ``spinning_rod``: a 1 x 1 x 20 cm rod (inertia ratio 1:200) at 100 rad/s, half of it about
+  the long axis, 10 s.
 
 Metrics, all over the whole run: drift, the largest displacement of a dynamic body from where
-it started; deviation, the largest difference of a body's position from the same run at the
+it started; momentum drift, the largest change of the total momentum relative to its start
+(zero gravity only); the case's own measures named above; deviation, the largest difference
+of a body's position from the same run at the
 origin (offset removed); penetration, the deepest contact reported by the engine after any
 step (thesis_rbd: ``World.contacts["depths"]``; pybullet: the most negative contact distance
 of ``getContactPoints``); final height, the top body's centre at the end; final speed, the
@@ -83,6 +101,8 @@ RATE = 240
 FREE_BOX = (1.0, 2.0, 3.0)
 TUMBLE = (0.4, 2.0, -1.1)
 HIGH_SPIN = (0.05, 50.0, 0.05)  # about y, the intermediate axis of the 1 x 2 x 3 box
+ROD = (0.01, 0.01, 0.2)  # 1:200 inertia ratio
+ROD_SPIN = (70.0, 0.0, 70.0)  # rad/s, half about the long axis
 CHECKPOINTS = 100
 TOLERANCE = 0.01  # geometry bounds: the fraction of a body's size it may move or sink
 FAR = 1e5  # m, the far-from-origin stack's x and y
@@ -123,6 +143,8 @@ RESTING_PEERS = ("pybullet", "mujoco") if _mujoco_installed() else ("pybullet",)
 # the peers' columns of the table: MuJoCo's where it ran
 TABLE_PEERS = (*CONTACT_PEERS, "mujoco") if _mujoco_installed() else CONTACT_PEERS
 FREE_PEERS = ("pybullet",)
+# the hard cases of issue 33 have every peer beside them
+HARD_PEERS = TABLE_PEERS
 
 
 @dataclass(frozen=True)
@@ -169,6 +191,32 @@ def _fraction_of_edge(share: float, what: str = "the edge") -> Bound:
 
 
 CUBE_EDGE = "the 1 m cube edge"
+_WALL = "the wall's 1 cm thickness"
+_NO_ENERGY_ADDED = Bound(
+    1e-3, "physics: a collision cannot add kinetic energy; 0.1 % of it allowed"
+)
+_MOMENTUM_KEPT = Bound(1e-6, "physics: nothing outside acts, so momentum is kept; 1e-6 allowed")
+
+
+def _far_end_share(trace: dict, spec) -> float:
+    """The row's far end's final velocity along the row over the mean velocity P / M."""
+    masses = np.array([spec.bodies[i].mass for i in spec.dynamic()])
+    mean = trace["momentum"][0, 0] / masses.sum()
+    return float(trace["final_velocities"][-1, 0] / mean)
+
+
+def _row_overlap(trace: dict, edge: float) -> float:
+    """The largest overlap along x of consecutive cubes of ``edge`` in a row (m)."""
+    x = trace["positions"][:, :, 0]
+    return float((x[:, :-1] + edge - x[:, 1:]).max())
+
+
+def _stack_error(trace: dict, thickness: float) -> float:
+    """How far the plates of a column end from lying in order one on another (m)."""
+    z = trace["positions"][-1, :, 2]
+    return float(np.abs(z - thickness * (0.5 + np.arange(len(z)))).max())
+
+
 # name -> label; scene factory (or "free"); our engines; the peers; the length scale (m)
 # metrics are divided by (1 for absolute metrics); the metrics as (key, label, Bound).
 CASES = {
@@ -386,9 +434,121 @@ CASES = {
             ("max_penetration", "penetration (m)", _share_of(1.0, CUBE_EDGE)),
         ),
     },
+    "struck_row": {
+        "label": "box at 2 m/s into 5 touching boxes, zero g, e = 0.5",
+        "scene": lambda: scenes.struck_row(5, 2.0, 0.5),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        "measure": lambda trace, spec: {"far_end_share": _far_end_share(trace, spec)},
+        "metrics": (
+            ("energy_gain", "kinetic energy gain, relative", _NO_ENERGY_ADDED),
+            ("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),
+            (
+                "far_end_share",
+                "far end's final speed / (P / M)",
+                Bound(
+                    (1.0 - TOLERANCE, math.inf),
+                    "physics: bodies of a row end ordered by speed, so the far end moves at "
+                    "least at the mean velocity P / M; 1 % allowed",
+                ),
+            ),
+            ("max_penetration", "penetration (m)", _share_of(0.1, "the boxes' 10 cm edge")),
+        ),
+    },
+    "wall_slide": {
+        "label": "box sliding at 20 m/s into a 1 cm wall",
+        "scene": lambda: scenes.wall_slide(20.0, 0.01),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        # the box's front face beyond the wall's near face (the box is the last body)
+        "measure": lambda trace, spec: {
+            "max_crossing": float(trace["positions"][:, -1, 0].max() + 0.05 - (1.0 - 0.005))
+        },
+        "metrics": (
+            ("max_crossing", "box front beyond the wall face (m)", _share_of(0.01, _WALL)),
+            ("max_penetration", "penetration (m)", _share_of(0.01, _WALL)),
+        ),
+    },
+    "touching_pair_strike": {
+        "label": "two touching cubes at 300 m/s into a third, zero g",
+        "scene": lambda: scenes.touching_pair_strike(300.0),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        "measure": lambda trace, spec: {"max_overlap": _row_overlap(trace, 1.0)},
+        "metrics": (
+            ("max_overlap", "largest overlap along the row (m)", _share_of(1.0, CUBE_EDGE)),
+            ("energy_gain", "kinetic energy gain, relative", _NO_ENERGY_ADDED),
+            ("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),
+        ),
+    },
+    "plate_column": {
+        "label": "ten 1 mm plates dropped 1 mm apart",
+        "scene": lambda: scenes.plate_column(10),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        "measure": lambda trace, spec: {"order_error": _stack_error(trace, 1e-3)},
+        "metrics": (
+            (
+                "order_error",
+                "largest final height error of a plate (m)",
+                _share_of(1e-3, "the plates' 1 mm thickness: the stack ends in order"),
+            ),
+            ("max_penetration", "penetration (m)", _share_of(1e-3, "the 1 mm plate")),
+        ),
+    },
+    "dropped_rod": {
+        "label": "1 x 1 x 20 cm rod dropped, e = 0, no friction",
+        "scene": lambda: scenes.dropped_rod(0),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        "metrics": (
+            (
+                "energy_gain",
+                "energy gain, relative",
+                Bound(
+                    1e-3,
+                    "physics: without restitution or friction nothing adds energy; 0.1 % "
+                    "of it allowed",
+                ),
+            ),
+            ("max_penetration", "penetration (m)", _share_of(0.01, "the rod's 1 cm width")),
+        ),
+    },
+    "drifting_pair": {
+        "label": "two cubes drifting at 1 mm/s, zero g, sleeping on",
+        "scene": lambda: scenes.drifting_pair(1e-3),
+        "engines": ("ours",),
+        "peers": HARD_PEERS,
+        "metrics": (("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),),
+    },
+    "spinning_rod": {
+        "label": "1 x 1 x 20 cm rod tumbling at 100 rad/s",
+        "scene": "free",
+        "extents": ROD,
+        "omega": ROD_SPIN,
+        "engines": ("ours",),
+        "peers": FREE_PEERS,
+        "metrics": (
+            (
+                "energy_drift",
+                "kinetic energy drift, relative",
+                Bound(1e-6, "physics: torque-free motion conserves energy; 1e-6 allowed"),
+            ),
+            (
+                "momentum_drift",
+                "|L| drift, relative",
+                Bound(
+                    1e-9,
+                    "physics: torque-free motion conserves L; 1e-9 allowed",
+                    construction=("ours",),
+                ),
+            ),
+        ),
+    },
     "high_spin": {
         "label": "high spin, 50 rad/s near the intermediate axis",
         "scene": "free",
+        "omega": HIGH_SPIN,
         "engines": ("ours",),
         "peers": FREE_PEERS,
         "metrics": (
@@ -411,6 +571,7 @@ CASES = {
     "long_run": {
         "label": "long run, tumbling box",
         "scene": "free",
+        "omega": TUMBLE,
         "engines": ("ours",),
         "peers": FREE_PEERS,
         "metrics": (
@@ -485,8 +646,10 @@ def _pybullet_energy(spec, scene, dynamic):
 
 def _trace(spec, engine: str, steps: int, dt: float) -> dict:
     """Step ``spec`` in ``engine``: dynamic bodies' positions (steps + 1, n, 3), the deepest
-    contact after each step (steps,), the energy (steps + 1,), final speeds (n,)."""
+    contact after each step (steps,), the energy and the total momentum (steps + 1,) and
+    (steps + 1, 3), final velocities (n, 3) and speeds (n,)."""
     dynamic = spec.dynamic()
+    masses = np.array([spec.bodies[i].mass for i in dynamic])
     if "configuration" in ENGINES[engine] or "mujoco" in ENGINES[engine]:
         if "mujoco" in ENGINES[engine]:
             scene = scenes.build_mujoco(spec, dt)
@@ -496,8 +659,8 @@ def _trace(spec, engine: str, steps: int, dt: float) -> dict:
         def positions():
             return np.array([scene.position(i) for i in dynamic])
 
-        def speeds():
-            return np.array([np.linalg.norm(scene.velocity(i)) for i in dynamic])
+        def velocities():
+            return np.array([scene.velocity(i) for i in dynamic])
 
         def energy():
             return _pybullet_energy(spec, scene, dynamic)
@@ -512,8 +675,8 @@ def _trace(spec, engine: str, steps: int, dt: float) -> dict:
         def positions():
             return world.positions[dynamic].copy()
 
-        def speeds():
-            return np.array([np.linalg.norm(world.linear_velocity(i)) for i in dynamic])
+        def velocities():
+            return np.array([world.linear_velocity(i) for i in dynamic])
 
         def energy():
             return world.kinetic_energy() + world.potential_energy()
@@ -527,14 +690,18 @@ def _trace(spec, engine: str, steps: int, dt: float) -> dict:
         "positions": np.empty((steps + 1, len(dynamic), 3)),
         "penetration": np.empty(steps),
         "energy": np.empty(steps + 1),
+        "momentum": np.empty((steps + 1, 3)),
     }
     trace["positions"][0], trace["energy"][0] = positions(), energy()
+    trace["momentum"][0] = masses @ velocities()
     for k in range(steps):
         step()
         trace["positions"][k + 1] = positions()
         trace["penetration"][k] = penetration()
         trace["energy"][k + 1] = energy()
-    trace["speeds"] = speeds()
+        trace["momentum"][k + 1] = masses @ velocities()
+    trace["final_velocities"] = velocities()
+    trace["speeds"] = np.linalg.norm(trace["final_velocities"], axis=1)
     close()
     return trace
 
@@ -564,6 +731,12 @@ def _run_contact(name: str, engine: str, seconds: float, rate: int) -> dict:
         "energy_gain": float((trace["energy"] - energy0).max() / energy0),
         "final_height": float(x[-1, top, 2]),
     }
+    momentum0 = np.linalg.norm(trace["momentum"][0])
+    if spec.gravity == 0.0 and momentum0 > 0.0:
+        drift = np.linalg.norm(trace["momentum"] - trace["momentum"][0], axis=1).max()
+        result["momentum_drift"] = float(drift / momentum0)
+    if "measure" in case:
+        result.update(case["measure"](trace, spec))
     if "reference" in case:
         # the same scene at the origin: what the offset alone changes
         near = _trace(case["reference"](), engine, steps, 1.0 / rate)["positions"]
@@ -573,23 +746,24 @@ def _run_contact(name: str, engine: str, seconds: float, rate: int) -> dict:
 
 
 # ----------------------------------------------------------------------------- free cases
-def _free_box():
+def _free_box(extents):
     import thesis_rbd as rbd
 
-    mesh = rbd.shapes.box(FREE_BOX)
+    mesh = rbd.shapes.box(extents)
     return mesh, rbd.mass_properties(mesh, mass=1.0).inertia
 
 
-def _run_free(engine: str, omega0, steps: int, rate: int) -> dict:
-    """Kinetic energy and |L| relative drift at checkpoints along a torque-free run."""
+def _run_free(engine: str, extents, omega0, steps: int, rate: int) -> dict:
+    """Kinetic energy and |L| relative drift at checkpoints along a torque-free run of a box
+    of ``extents`` (m, 1 kg)."""
     import thesis_rbd as rbd
 
-    mesh, inertia = _free_box()
+    mesh, inertia = _free_box(extents)
     chunk = max(steps // CHECKPOINTS, 1)
     if "configuration" in ENGINES[engine]:
         from validation.pybullet_free_body import PybulletBox
 
-        box = PybulletBox(FREE_BOX, 1.0, np.diag(inertia), 1.0 / rate, angular_velocity=omega0)
+        box = PybulletBox(extents, 1.0, np.diag(inertia), 1.0 / rate, angular_velocity=omega0)
 
         def advance(n):
             box.time_steps(n)
@@ -638,10 +812,10 @@ def _run_free(engine: str, omega0, steps: int, rate: int) -> dict:
 def run(params: dict) -> dict:
     """One hard case in one engine (see the module docstring)."""
     name, engine, rate = params["case"], params["engine"], params["rate"]
-    if name == "long_run":
-        return _run_free(engine, TUMBLE, params["steps"], rate)
-    if name == "high_spin":
-        return _run_free(engine, HIGH_SPIN, round(params["seconds"] * rate), rate)
+    spec = CASES[name]
+    if spec["scene"] == "free":
+        steps = params["steps"] if "steps" in params else round(params["seconds"] * rate)
+        return _run_free(engine, spec.get("extents", FREE_BOX), spec["omega"], steps, rate)
     return _run_contact(name, engine, params["seconds"], rate)
 
 
@@ -773,7 +947,7 @@ def summarise(records: list[dict], figures_dir) -> Section:
         "seconds": next(
             r["params"]["seconds"]
             for r in records
-            if "seconds" in r["params"] and r["params"]["case"] != "high_spin"
+            if "seconds" in r["params"] and CASES[r["params"]["case"]]["scene"] != "free"
         ),
         "free_seconds": next(
             r["params"]["seconds"] for r in records if r["params"]["case"] == "high_spin"
@@ -883,7 +1057,7 @@ def _free_figure(results, figures_dir):
     fig, ax = new_axes(
         "Free cases: kinetic energy drift", "step", "|E/E0 - 1| (floored at 1e-17)", True, True
     )
-    for name, style in (("high_spin", "-"), ("long_run", "--")):
+    for name, style in (("high_spin", "-"), ("long_run", "--"), ("spinning_rod", ":")):
         for engine, color in (("ours", "tab:blue"), ("pybullet", "black")):
             result = results[(name, engine)]
             ax.plot(
@@ -898,6 +1072,6 @@ def _free_figure(results, figures_dir):
     save_figure(fig, figures_dir / file)
     return Figure(
         file,
-        "Relative kinetic-energy drift along the high-spin and the long run, RK4 against "
-        "pybullet's btMultiBody (defaults, damping 0).",
+        "Relative kinetic-energy drift along the high-spin run, the long run and the spinning "
+        "rod, ours at its defaults against pybullet's btMultiBody (defaults, damping 0).",
     )

@@ -293,6 +293,8 @@ class CollisionPipeline:
             ``contacts`` with the caught bodies' contacts found again where they were caught.
         caught : (k,) int64
             The bodies caught.
+        fraction : (k,) float64
+            The fraction of its motion over the step at which each was caught.
         caught_position, caught_orientation : (k, 3), (k, 4) float64
             Where they were caught: the caller moves them there.
         """
@@ -329,14 +331,16 @@ class CollisionPipeline:
         for body, fraction in companions.items():
             _place_between(body, fraction, start_position, start_orientation, end_position,
                            end_orientation, position, orientation)  # fmt: skip
-        caught = np.array(sorted({**caught_at, **companions}), np.int64)
+        fraction_of = {**caught_at, **companions}
+        caught = np.array(sorted(fraction_of), np.int64)
+        fraction = np.array([fraction_of[i] for i in caught], float)
         if not len(caught):
-            return contacts, caught, position[caught], orientation[caught]
+            return contacts, caught, fraction, position[caught], orientation[caught]
         moved = np.isin(pairs[:, 0], caught) | np.isin(pairs[:, 1], caught)
         fresh, _ = self.contacts(np.ascontiguousarray(pairs[moved]), position, orientation, cache)
         keep = ~(np.isin(contacts["body_a"], caught) | np.isin(contacts["body_b"], caught))
         contacts = ContactSet.concatenate([contacts.select(keep), fresh])
-        return contacts, caught, position[caught], orientation[caught]
+        return contacts, caught, fraction, position[caught], orientation[caught]
 
     def _mesh_contacts(self, pairs, state) -> ContactSet:
         """Contacts of mesh pairs by the OBBTree path (no feature ids)."""

@@ -23,8 +23,9 @@ two phases:
    solve pushed (it came to rest, e = 0) moves with its new velocity; one it did not (it
    bounced away) follows its exact ballistic path over t.
 
-Bodies that were not stepped back keep their positions; the impulses of both phases act on
-them as on the others.
+Bodies of those islands that were not stepped back (at rest against a body hit) collide at
+the island's time of impact too: they go back along their paths to it (they hardly moved) and
+are carried on from there like the others, so a row of touching bodies moves off together.
 """
 
 from __future__ import annotations
@@ -156,7 +157,10 @@ def resolve_impacts(
         Bodies the contact stage moved: their velocities hold the step's forces already, so
         no force acts on them over the rest of the step.
     rewind : (>= n,) float64
-        How far each body was stepped back (0: not).
+        In: how far each body was stepped back (0: not). Out: how long before the end of
+        the step each body carried on collided: a body of an island with a stepped-back
+        body that was not stepped back itself (one resting on a body hit) collides at the
+        island's time of impact too, and is carried on from there with what it was given.
     contact_ints, contact_floats, contact_count
         The contact set after the time-of-impact stage (c rows), packed as a ``ContactSet``.
     position ... friction
@@ -172,6 +176,9 @@ def resolve_impacts(
         ``contact_stats.STATS``.
     resolved : (c,) bool
         The contacts of the resolved islands.
+    pushed : (n,) bool
+        The bodies whose velocities the resting solve of the rest of the step set: like the
+        contact stage's, they hold the forces' share of the rest of the step already.
     """
     body_a, body_b, points, normals, depths, _, _ = contact_views(
         contact_ints, contact_floats, contact_count
@@ -180,10 +187,12 @@ def resolve_impacts(
     n = count
     stats = np.zeros(6, np.int64)
     stats[BAD_BODY] = -1
-    resolved, sel, sub_start = _impact_islands(n, body_a, body_b, static, rewind)
+    resolved, sel, sub_start, body_island, island_time = _impact_islands(
+        n, body_a, body_b, static, rewind
+    )
     kept = sel.shape[0]
     if kept == 0:
-        return stats, resolved
+        return stats, resolved, np.zeros(n, np.bool_)
     stats[ISLANDS] = sub_start.shape[0] - 1
     sa, sb = body_a[sel], body_b[sel]
     arm_a, arm_b = contact_arms(points, position, sel, sa, sb)
@@ -194,6 +203,7 @@ def resolve_impacts(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body,
     )  # fmt: skip
+    v0 = v.copy()
     acceleration, alpha = _accelerations(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body, inverse_inertia, external_force, drag, pf_start, pf_arm, pf_force,
@@ -242,7 +252,11 @@ def resolve_impacts(
     )  # fmt: skip
 
     # 3. the bodies carried to the end of the step
-    stats[BAD_BODY] = _carry_to_end_of_step(
+    _back_to_collision(
+        n, static, rewind, sa, sb, body_island, island_time, v0, angular_momentum,
+        inverse_inertia_body, acceleration, position, orientation,
+    )  # fmt: skip
+    stats[BAD_BODY], pushed = _carry_to_end_of_step(
         n, static, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position,
         orientation,
         linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
@@ -251,14 +265,36 @@ def resolve_impacts(
     for k in range(kept):
         for d in range(3):
             impulse[sel[k], d] = lam[k, d] + rest[k, d]
-    return stats, resolved
+    return stats, resolved, pushed
+
+
+@njit(inline="always")
+def _back_to_collision(
+    n, static, rewind, sa, sb, body_island, island_time, v0, angular_momentum,
+    inverse_inertia_body, acceleration, position, orientation,
+):  # fmt: skip
+    """Step the bodies of the islands' contacts (``sa``, ``sb`` (k,)) that were not stepped
+    back to their island's time of impact along their paths before it (velocities ``v0``
+    (n, 3) at the end of the step, scratch), and set their ``rewind``: the collision changed
+    their velocities then, so they are carried on from there like the others."""
+    for k in range(sa.shape[0]):
+        for i in (sa[k], sb[k]):
+            if static[i] or rewind[i] > 0.0:
+                continue
+            t = island_time[body_island[i]]
+            move_ballistic(
+                np.array([i]), -t, v0, angular_momentum, inverse_inertia_body, acceleration,
+                position, orientation,
+            )  # fmt: skip
+            rewind[i] = t
 
 
 @njit(inline="always")
 def _impact_islands(n, body_a, body_b, static, rewind):
     """The contacts of the islands that hold a stepped-back body: ``resolved`` (c,) bool,
-    their rows ``sel`` (k,) int64 island by island, and each island's first row in ``sel``
-    (``sub_start`` (islands + 1,) int64)."""
+    their rows ``sel`` (k,) int64 island by island, each island's first row in ``sel``
+    (``sub_start`` (islands + 1,) int64), and the island of each body (n,) int64 (-1: none)
+    with the islands' times of impact (the longest rewind of their bodies, s)."""
     c = body_a.shape[0]
     body_island, order, island_start = find_islands(n, body_a, body_b, static)
     islands = island_start.shape[0] - 1
@@ -284,7 +320,7 @@ def _impact_islands(n, body_a, body_b, static, rewind):
             for idx in range(island_start[isl], island_start[isl + 1]):
                 sel[m] = order[idx]
                 m += 1
-    return keep, sel, np.array(starts, np.int64)
+    return keep, sel, np.array(starts, np.int64), body_island, island_time
 
 
 @njit(inline="always")
@@ -364,7 +400,8 @@ def _carry_to_end_of_step(
     inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
 ):  # fmt: skip
     """Write the islands' momenta and move their stepped-back bodies to the end of the step;
-    returns the first body whose momenta are not finite (-1: none).
+    returns the first body whose momenta are not finite (-1: none) and which bodies the
+    resting solve pushed (n,) bool.
 
     Momenta are written where the collision happened: L = I w holds at the orientation of the
     time of impact, and the motion over the rest of the step then keeps L (it turns the body,
@@ -415,4 +452,4 @@ def _carry_to_end_of_step(
             move_ballistic(
                 one, t, v, angular_momentum, inverse_inertia_body, still, position, orientation
             )
-    return bad
+    return bad, pushed

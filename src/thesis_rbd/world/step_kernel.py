@@ -69,7 +69,7 @@ def run_steps(
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum,
-    start_position, start_orientation, solved,
+    start_position, start_orientation, solved, reach_back,
     contact_group, detection_group, convex_group,
     contacts, acted, warm, cache,
     candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
@@ -117,6 +117,9 @@ def run_steps(
         Out: where each body began the step (written when the scene collides).
     solved : (>= n,) bool
         Out: the bodies the contact stage moved this step.
+    reach_back : (>= n,) float64
+        Out: how far back (s) each body's path over this step goes, for the time of impact:
+        ``dt``, less for a body the tunnelling stage caught part way.
     contact_group : tuple or None
         ``(settings, polygon, stats)`` of the contact stage; None without a contact response.
     detection_group : tuple or None
@@ -178,6 +181,7 @@ def run_steps(
                 saved_orientation, saved_linear_momentum, saved_angular_momentum,
             )  # fmt: skip
             solved[:count] = False
+            reach_back[:count] = dt
             at_start = (contacts, acted, warm, cache)
             acted = (no_ints, no_floats, 0, no_impulses)
             rewound = False

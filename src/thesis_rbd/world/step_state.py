@@ -63,12 +63,18 @@ class StepState:
         The next bounds stage refits every fat box (the scene changed).
     rewound : bool
         This step's time of impact stepped a body back; ``rewind`` (n,) says how far (s).
+    unrewound : tuple
+        (position (n, 3), orientation (n, 4)): where the bodies were before the time of
+        impact last stepped any back (empty arrays before it has).
     impact_count : int
         Islands resolved at their time of impact in the last step.
     contact_stats : (len(contact_stats.STATS),) int64
         What the last contact or impact stage counted.
     solved : (n,) bool
         Scratch: the bodies the contact stage moved this step.
+    reach_back : (n,) float64
+        Scratch: how far back (s) each body's path over this step goes (``dt``; less for a
+        body the tunnelling stage caught part way), for the time of impact.
     start_position, start_orientation : (n, 3), (n, 4) float64
         Scratch: where each body began the step.
     fast : (n,) bool
@@ -93,9 +99,11 @@ class StepState:
     refit_all: bool
     rewound: bool
     rewind: np.ndarray
+    unrewound: tuple
     impact_count: int
     contact_stats: np.ndarray
     solved: np.ndarray
+    reach_back: np.ndarray
     start_position: np.ndarray
     start_orientation: np.ndarray
     fast: np.ndarray
@@ -110,7 +118,9 @@ class StepState:
             point_forces=PointForces.empty(count), frozen=np.zeros(count, bool), awake=False,
             any_asleep=False, candidate_count=0, fast_count=0, slowest=np.inf,
             fat_changed=False, refit_all=True, rewound=False, rewind=np.zeros(count),
+            unrewound=(np.zeros((0, 3)), np.zeros((0, 4))),
             impact_count=0, contact_stats=np.zeros(stat_count, np.int64),
-            solved=np.zeros(count, bool), start_position=np.zeros((count, 3)),
-            start_orientation=np.zeros((count, 4)), fast=np.zeros(count, bool),
+            solved=np.zeros(count, bool), reach_back=np.zeros(count),
+            start_position=np.zeros((count, 3)), start_orientation=np.zeros((count, 4)),
+            fast=np.zeros(count, bool),
         )  # fmt: skip

@@ -1,18 +1,21 @@
-"""Time of impact: bodies that ended their free flight inside something are stepped back.
+"""Time of impact: bodies that ended their step inside something are stepped back.
 
-A body that flew freely through a step (the contact stage did not act on it) and ends it
-inside another body met it during the step. This stage finds when: each group of such bodies
-(joined by the contacts that hit them) retraces its ballistic path,
+A body that ends the step inside another met it during the step. This stage finds when: each
+group of such bodies (joined by the contacts between bodies that moved) retraces its
+ballistic path,
 
     x(-t) = x - v t + a t^2 / 2,   v(-t) = v - a t,   q turned back freely,
 
 exact for a constant force and torque-free spin over the step, and bisection on the yes/no
-intersection query finds the last moment before the present at which the group's pairs did
-not touch, to dt / 2^``HALVINGS``. The bodies are left there with their velocities of that
-moment, and the contacts of their pairs are found anew; what remains of the step is the
-impact stage's (``dynamics/impacts.py``). A group that already touched at the start of the
-step (a contact found then by the yes/no query but not by the contact generator, as at an
-exact touch) goes back to where it started: its whole step is the impact stage's.
+intersection query finds the last moment before the present at which the group's hit pairs
+did not touch (for a convex pair that touched already, were not deeper than allowed), to
+the step / 2^``HALVINGS``. A path goes back no further than it is known: the step, the part
+of it before the tunnelling sweep caught the body, or the time since a collision earlier in
+the step. The bodies are left there with their velocities of that moment, and the contacts of
+their pairs are found anew; what remains of the step is the impact stage's
+(``dynamics/impacts.py``). A group that already touched where its path begins (a contact
+found then by the yes/no query but not by the contact generator, as at an exact touch) goes
+back there: its whole step is the impact stage's.
 """
 
 from __future__ import annotations
@@ -20,16 +23,24 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
-from thesis_rbd._pair_keys import first_of, pair_key, second_of
+from thesis_rbd._pair_keys import (
+    first_of,
+    keys_to_pairs,
+    pair_key,
+    pair_keys,
+    second_of,
+    unordered_pair_key,
+)
 from thesis_rbd._sorting import unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contact_set import ContactSet
-from thesis_rbd.collision.touching import pairs_touch
+from thesis_rbd.collision.touching import pairs_deeper, pairs_touch
 from thesis_rbd.dynamics.free_rotation import turn_freely
 
 __all__ = [
     "HALVINGS",
     "bisect_to_contact",
+    "depth_before",
     "group_contacts",
     "impact_groups",
     "passed_through",
@@ -41,30 +52,33 @@ HALVINGS = 12
 
 
 @njit
-def impact_groups(body_count, body_a, body_b, hits, movers):
-    """Group the movers that go back in time together: those joined by a contact to a mover
-    of a hit contact (``hits`` (c,) bool), directly or through other movers.
+def impact_groups(body_count, body_a, body_b, hits, travelled):
+    """Group the bodies that go back in time together: the ``travelled`` (n,) bool bodies
+    joined by a contact to a travelled body of a hit contact (``hits`` (c,) bool), directly
+    or through other travelled ones.
 
-    Movers in contact move together over the step (two touching cubes flying into a third):
-    stepping one back to its time of impact and not the other would leave them overlapping.
-    Returns ``group`` (n,) int64: the group of each such mover, -1 elsewhere, and the number
-    of groups. Bodies that are not movers (static, resting) are obstacles: they join nothing.
+    Travelled bodies in contact move together over the step (two touching cubes flying into
+    a third): stepping one back to its time of impact and not the other would leave them
+    overlapping. A body that hardly moved over the step (a pile that a falling cube lands
+    on), or a static or sleeping one, is an obstacle for the search and joins nothing; the
+    impact stage carries on the resting bodies that the collision moves. Returns ``group``
+    (n,) int64: the group of each such body, -1 elsewhere, and the number of groups.
     """
     parent = np.arange(body_count)
     for k in range(body_a.shape[0]):
-        if movers[body_a[k]] and movers[body_b[k]]:
+        if travelled[body_a[k]] and travelled[body_b[k]]:
             join(parent, body_a[k], body_b[k])
     hit_root = np.zeros(body_count, np.bool_)
     for k in range(body_a.shape[0]):
         if hits[k]:
             for i in (body_a[k], body_b[k]):
-                if movers[i]:
+                if travelled[i]:
                     hit_root[find_root(parent, i)] = True
     label = np.full(body_count, -1)
     group = np.full(body_count, -1)
     groups = 0
     for i in range(body_count):
-        if not movers[i]:
+        if not travelled[i]:
             continue
         r = find_root(parent, i)
         if not hit_root[r]:
@@ -147,7 +161,9 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
     return passed
 
 
-def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleration, dt, cache):
+def step_back_to_impact(
+    detector, bodies, contacts, hits, allowed, travelled, v, acceleration, reach_back, cache
+):  # fmt: skip
     """Step each group of movers with a hit contact back to its time of impact.
 
     Parameters
@@ -161,15 +177,21 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleratio
         This step's contacts at the end of the step.
     hits : (c,) bool
         Contacts that a mover ran into during the step.
-    movers : (n,) bool
-        Bodies in free flight this step.
+    allowed : (c,) float64
+        For a hit whose pair touched before (convex pairs only), the depth (m) it may reach
+        (the group goes back to when it went further in); -inf for a pair that did not touch
+        (the group goes back to when it first touched).
+    travelled : (n,) bool
+        Bodies that moved more than their slop over the step (``impact_groups``).
     v : (n, 3) float64
         Velocities at the end of the step; stepped-back bodies get those of their time of
         impact (their angular momenta, the bodies', are kept: torque-free spin).
     acceleration : (n, 3) float64
         Constant acceleration of each body over the step (external force / mass).
-    dt : float
-        The step: no body goes back further.
+    reach_back : (n,) float64
+        How far back (s) each body's present path goes: the step, or the time since a
+        collision earlier in the step changed its velocity. A group goes back no further
+        than the least of its members'.
     cache : tuple
         The convex coherence cache (``convex.contacts``).
 
@@ -183,15 +205,22 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleratio
     n = bodies.count
     rewind = np.zeros(n)
     body_a, body_b = contacts["body_a"], contacts["body_b"]
-    group, groups = impact_groups(n, body_a, body_b, hits, movers)
+    group, groups = impact_groups(n, body_a, body_b, hits, travelled)
     position, orientation = bodies.full("position"), bodies.full("orientation")
     renewed = np.zeros(len(body_a), bool)
+    deeper = hits & np.isfinite(allowed)
+    touched = hits & ~deeper
+    deep_pairs, deep_allowed = np.zeros((0, 2), np.int64), np.zeros(0)
     for g in range(groups):
-        members, mine, pairs = group_contacts(group, g, body_a, body_b, hits)
+        members, mine, pairs = group_contacts(group, g, body_a, body_b, touched)
+        if deeper.any():
+            deep = mine & deeper
+            deep_pairs, deep_allowed = _deepest_allowed(body_a[deep], body_b[deep], allowed[deep])
         t = bisect_to_contact(
-            members, pairs, v, bodies.full("angular_momentum"),
-            bodies.full("inverse_inertia_body"), acceleration, position, orientation, dt,
-            bodies.full("center_of_mass_local"), detector.touch_inputs(cache),
+            members, pairs, deep_pairs, deep_allowed, v, bodies.full("angular_momentum"),
+            bodies.full("inverse_inertia_body"), acceleration, position, orientation,
+            reach_back[members].min(), bodies.full("center_of_mass_local"),
+            detector.touch_inputs(cache),
         )  # fmt: skip
         if t > 0.0:
             rewind[members] = t
@@ -205,19 +234,59 @@ def step_back_to_impact(detector, bodies, contacts, hits, movers, v, acceleratio
     return rewind, ContactSet.concatenate([contacts.select(kept), fresh])
 
 
+def _deepest_allowed(body_a, body_b, allowed):
+    """The distinct pairs (p, 2) of contacts (k,) and the least depth each may reach (p,)."""
+    keys = pair_keys(body_a, body_b)
+    distinct, which = np.unique(keys, return_inverse=True)
+    least = np.full(len(distinct), np.inf)
+    np.minimum.at(least, which, allowed)
+    return keys_to_pairs(distinct), least
+
+
+@njit
+def depth_before(body_a, body_b, asked, before_a, before_b, before_depths):
+    """How deep the pair of each ``asked`` (c,) bool contact (``body_a``, ``body_b`` (c,))
+    was in the contacts ``before`` (``before_a``, ``before_b``, ``before_depths`` (m,), the
+    same bodies earlier in the step): its deepest contact there (m), -inf where the pair did
+    not touch (no contact, or only a gap) and for contacts not asked."""
+    m = before_a.shape[0]
+    keys = np.empty(m, np.int64)
+    deepest = np.empty(m)
+    touching = 0
+    for k in range(m):
+        if before_depths[k] >= 0.0:
+            keys[touching] = unordered_pair_key(before_a[k], before_b[k])
+            deepest[touching] = before_depths[k]
+            touching += 1
+    order = np.argsort(keys[:touching])
+    keys, deepest = keys[:touching][order], deepest[:touching][order]
+    found = np.full(body_a.shape[0], -np.inf)
+    for k in range(body_a.shape[0]):
+        if not asked[k]:
+            continue
+        key = unordered_pair_key(body_a[k], body_b[k])
+        i = np.searchsorted(keys, key)
+        while i < touching and keys[i] == key:
+            found[k] = max(found[k], deepest[i])
+            i += 1
+    return found
+
+
 @njit
 def bisect_to_contact(
-    members, pairs, v, angular_momentum, inverse_inertia_body, acceleration, position,
-    orientation, dt, center_of_mass_local, touch_inputs,
+    members, pairs, deep_pairs, allowed, v, angular_momentum, inverse_inertia_body,
+    acceleration, position, orientation, reach_back, center_of_mass_local, touch_inputs,
 ):  # fmt: skip
-    """Leave ``members`` just inside first contact of ``pairs`` and return how far back that
-    is (s), in one call.
+    """Leave ``members`` just inside first contact of ``pairs`` (or just deeper than allowed
+    in ``deep_pairs``) and return how far back that is (s), in one call.
 
-    The group goes back along its ballistic path to the start of the step and, unless its
-    pairs touched already then (``dt`` is returned, the bodies left there), bisection on
-    ``touching.pairs_touch`` finds the last moment at which they touched, to
-    dt / 2^``HALVINGS``. Each probe places the bodies at their pose s back from the end of
-    the step (``place_back``), so where a body is tried depends on s alone.
+    The group goes back along its ballistic path as far as it goes (``reach_back``, s: the
+    step, or less after a collision earlier in the step) and, unless its pairs touched
+    already then (``reach_back`` is returned, the bodies left there), bisection on
+    ``touching.pairs_touch`` and ``touching.pairs_deeper`` finds the last moment at which
+    they touched, to reach_back / 2^``HALVINGS``. Each probe places the bodies at their pose
+    s back from the end of the step (``place_back``), so where a body is tried depends on s
+    alone.
 
     Parameters
     ----------
@@ -225,6 +294,9 @@ def bisect_to_contact(
         The group's bodies.
     pairs : (p, 2) int64
         The pairs whose contact is sought.
+    deep_pairs : (q, 2) int64
+        Convex pairs that touched already: sought is when one went deeper than its
+        ``allowed`` (q,) depth (m).
     v : (n, 3) float64
         Velocities at the end of the step; the members' are left at the time found.
     angular_momentum, inverse_inertia_body : (n, 3), (n, 3, 3) float64
@@ -233,8 +305,8 @@ def bisect_to_contact(
         Constant acceleration over the step.
     position, orientation : (n, 3), (n, 4) float64
         Poses at the end of the step; the members' are left at the time found.
-    dt : float
-        The step: no body goes back further.
+    reach_back : float
+        How far back (s) the group's path goes.
     center_of_mass_local : (n, 3) float64
     touch_inputs : tuple
         ``CollisionPipeline.touch_inputs(cache)``.
@@ -246,19 +318,32 @@ def bisect_to_contact(
         members, end_position, end_orientation, end_v, angular_momentum, inverse_inertia_body,
         acceleration, position, orientation, v,
     )  # fmt: skip
-    place_back(dt, *ballistic)
-    if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
-        return dt
-    inside, outside = 0.0, dt
+    place_back(reach_back, *ballistic)
+    if _collide(pairs, deep_pairs, allowed, position, orientation, center_of_mass_local,
+                touch_inputs):  # fmt: skip
+        return reach_back
+    inside, outside = 0.0, reach_back
     for _ in range(HALVINGS):
         middle = 0.5 * (inside + outside)
         place_back(middle, *ballistic)
-        if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
+        if _collide(pairs, deep_pairs, allowed, position, orientation, center_of_mass_local,
+                    touch_inputs):  # fmt: skip
             inside = middle
         else:
             outside = middle
     place_back(inside, *ballistic)
     return inside
+
+
+@njit(inline="always")
+def _collide(pairs, deep_pairs, allowed, position, orientation, center_of_mass_local,
+             touch_inputs):  # fmt: skip
+    """Whether ``pairs`` touch or ``deep_pairs`` are deeper than ``allowed``."""
+    if pairs_touch(pairs, position, orientation, center_of_mass_local, *touch_inputs):
+        return True
+    return pairs_deeper(
+        deep_pairs, allowed, position, orientation, center_of_mass_local, *touch_inputs
+    )
 
 
 @njit

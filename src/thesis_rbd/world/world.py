@@ -42,6 +42,7 @@ from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
+from thesis_rbd.dynamics.contact_kinematics import contact_tolerances
 from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION, ContactSettings
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, STATS
 from thesis_rbd.dynamics.forces import (
@@ -71,7 +72,7 @@ from thesis_rbd.world.step_kernel import (
     run_steps,
 )
 from thesis_rbd.world.step_state import StepState
-from thesis_rbd.world.time_of_impact import passed_through, step_back_to_impact
+from thesis_rbd.world.time_of_impact import depth_before, passed_through, step_back_to_impact
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
@@ -79,6 +80,10 @@ __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 # The largest force component ``apply_force`` takes (N): the kernels square forces and the
 # momenta they give, and 1e150 squared stays finite with room for sums.
 MOST_FORCE = 1e150
+
+# Rounds of collisions the impact stage resolves in one step: a body carried on after its
+# collision may run into another within the step, and that one into a third.
+IMPACT_ROUNDS = 8
 
 
 class NonFiniteStateError(FloatingPointError):
@@ -350,8 +355,8 @@ class World(WorldReadout):
         self._state = dataclasses.replace(
             self._state, external_force=self._gravity_force,
             point_forces=PointForces.empty(n), solved=np.zeros(n, bool),
-            start_position=b.position.copy(), start_orientation=b.orientation.copy(),
-            fast=fast, rewind=np.zeros(n), refit_all=True,
+            reach_back=np.full(n, self.dt), start_position=b.position.copy(),
+            start_orientation=b.orientation.copy(), fast=fast, rewind=np.zeros(n), refit_all=True,
             **self._sleep_fields(),
         )  # fmt: skip
         # the step kernel's arguments that change only with the plan
@@ -447,7 +452,8 @@ class World(WorldReadout):
             self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
             pf.force, *self._saved, s.start_position, s.start_orientation, s.solved,
-            self._contact_group, self._detection_group, self._convex_group, *handed_in,
+            s.reach_back, self._contact_group, self._detection_group, self._convex_group,
+            *handed_in,
             s.candidate_count, s.fast_count, s.slowest, s.fat_changed, s.refit_all, s.rewound,
             cycles, calls,
         )  # fmt: skip
@@ -551,59 +557,163 @@ class World(WorldReadout):
     def _catch_tunnelling(self, s: StepState) -> StepState:
         """Sampling along the step for fast bodies only: put back what passed through."""
         b = self.bodies
-        contacts, caught, position, orientation = self._collision.sweep(
+        contacts, caught, fraction, position, orientation = self._collision.sweep(
             self._collision.candidates(s.candidate_count), s.contacts, s.fast,
             b.full("position"), b.full("orientation"), s.start_position, s.start_orientation,
             s.convex_cache,
         )  # fmt: skip
         b.position[caught], b.orientation[caught] = position, orientation
+        # a caught body lost the rest of its step: its path goes back to the start only
+        s.reach_back[caught] = fraction * self.dt
         return dataclasses.replace(s, contacts=contacts)
 
     def _step_back_to_impact(self, s: StepState) -> StepState:
-        """Bodies in free flight that ran into something go back to when they touched."""
-        b, c, detector = self.bodies, s.contacts, self._collision
+        """Bodies that ran into something during the step go back to when they touched."""
+        n = self.bodies.count
+        return self._step_back(
+            s, s.contacts, s.acted, s.solved[:n], s.reach_back[:n].copy(), first=True
+        )
+
+    def _step_back(
+        self, s, contacts, before, solved, reach_back, first=False, since=None
+    ) -> StepState:
+        """Find the ``contacts`` (a ``ContactSet``) a moving body ran into since ``before``
+        (the contacts of the start of the step, or of a collision in it) and step each group
+        of such bodies back to its time of impact, no further than ``reach_back`` (n,) s.
+
+        ``solved`` (n,) bool: bodies whose velocities hold the forces of the rest of their
+        step. A hit is a contact that penetrates and approaches, of a pair that did not touch
+        before, or of a convex pair gone deeper than before by more than its slop (a
+        spinning cube's corner driven into the one it rests on). On the ``first`` search of
+        the step, any contact of a body that flew freely is a hit, and a receding one is too
+        where its pair was apart at the start of the step (a body flown through a thin one).
+        A body the contact stage moved by less than its slop since the pose ``since``
+        ((position, orientation); None: the start of the step) is an obstacle, as a static
+        one is.
+        """
+        b, detector, c = self.bodies, self._collision, contacts
         n = b.count
         # every moving body: one the contact stage moved can run into something too
         movers = ~s.frozen[:n]
         state, masses = self._kernel_bodies[:4], self._kernel_bodies[4:6]
         hits, receding, v, _ = find_hits(
-            n, s.frozen, movers, s.solved, c.ints, c.floats, c.count, *state, *masses,
+            n, s.frozen, movers, solved, c.ints, c.floats, c.count, *state, *masses,
             b.full("thickness"), SLOP_FRACTION,
         )  # fmt: skip
-        if receding.any():
+        a_, b_ = c["body_a"], c["body_b"]
+        depth = depth_before(a_, b_, hits, before["body_a"], before["body_b"], before["depths"])
+        apart = depth == -np.inf
+        hull = detector.hull_of_body
+        allowed = depth + contact_tolerances(a_, b_, s.frozen, b.full("thickness"), SLOP_FRACTION)
+        deeper = ~apart & (hull[a_] >= 0) & (hull[b_] >= 0) & (c["depths"] > allowed)
+        qualifies = apart | deeper
+        flew = movers & ~solved
+        if first:
+            qualifies |= flew[a_] | flew[b_]
+            deeper &= ~(flew[a_] | flew[b_])
+        if first and receding.any():
             hits |= passed_through(
                 detector, c, receding, s.start_position, s.start_orientation, s.convex_cache
             )
+        # a body the contact stage moved by less than its slop is an obstacle: it goes back
+        # with no group (a falling cube landing on a pile steps back alone, not with the pile
+        # it touches)
+        if since is None:
+            since = (s.start_position[:n], s.start_orientation[:n])
+        displaced = self._displaced(since)
+        travelled = flew | (movers & displaced)
+        hits &= qualifies & (travelled[a_] | travelled[b_])
         if not hits.any():
-            return s
-        # a body the contact stage moved has its forces in its velocity already
-        acceleration = np.where(s.solved[:n, None], 0.0, s.external_force * b.inverse_mass[:, None])
-        rewind, contacts = step_back_to_impact(
-            detector, b, c, hits, movers, v, acceleration, self.dt, s.convex_cache
-        )
+            return dataclasses.replace(s, contacts=c)
+        # a body whose velocity holds its forces already moves on at that velocity
+        acceleration = np.where(solved[:, None], 0.0, s.external_force * b.inverse_mass[:, None])
+        unrewound = (b.position.copy(), b.orientation.copy())
+        rewind, c = step_back_to_impact(
+            detector, b, c, hits, np.where(deeper, allowed, -np.inf), travelled, v,
+            acceleration, reach_back, s.convex_cache,
+        )  # fmt: skip
         rewound = rewind > 0
         # the stepped-back bodies carry the velocity of their time of impact
         b.linear_momentum[rewound] = v[rewound] / b.inverse_mass[rewound, None]
-        return dataclasses.replace(s, rewind=rewind, rewound=bool(rewound.any()), contacts=contacts)
+        return dataclasses.replace(
+            s, rewind=rewind, rewound=bool(rewound.any()), unrewound=unrewound, contacts=c
+        )
 
     def _resolve_impacts(self, s: StepState) -> StepState:
-        """Collisions at the time of impact, then the rest of the step for those bodies."""
+        """Collisions at their time of impact, then the rest of the step for those bodies.
+
+        A body carried on after its collision can run into a body it had no contact with
+        within what is left of the step (the plates of a stack landing one on another in one
+        step): it is stepped back again, no further than its collision, and resolved, for up
+        to ``IMPACT_ROUNDS`` rounds."""
+        n = self.bodies.count
+        solved, reach_back = s.solved[:n].copy(), np.full(n, self.dt)
+        islands = 0
+        for _ in range(IMPACT_ROUNDS):
+            s, pushed, rewind = self._collide(s, solved)
+            carried = rewind > 0
+            reach_back[carried] = np.minimum(reach_back[carried], rewind[carried])
+            islands += s.impact_count
+            solved |= pushed
+            s = self._step_back_again(s, carried & self._displaced(s.unrewound), solved, reach_back)
+            if not s.rewound:
+                break
+        return dataclasses.replace(s, rewind=np.zeros(n), rewound=False, impact_count=islands)
+
+    def _collide(self, s: StepState, solved: np.ndarray) -> tuple:
+        """One round of ``_resolve_impacts``: the islands of the stepped-back bodies resolved
+        and carried to the end of the step. Returns the state, the bodies the resting solve
+        pushed (n,) bool, and how long before the end of the step each body carried on
+        collided (n,) s (0: not carried)."""
         b, c, pf = self.bodies, s.contacts, s.point_forces
         impulses = np.zeros((c.count, 3))
         settings, polygon, _ = self._contact_group
-        stats, resolved = resolve_impacts(
-            settings, polygon, b.count, s.frozen, s.solved, s.rewind, c.ints, c.floats, c.count,
+        rewind = s.rewind.copy()
+        stats, resolved, pushed = resolve_impacts(
+            settings, polygon, b.count, s.frozen, solved, rewind, c.ints, c.floats, c.count,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
             pf.force, impulses,
         )  # fmt: skip
         if stats[BAD_BODY] >= 0:
             raise _StepFailed(int(stats[BAD_BODY]))
-        return dataclasses.replace(
-            s, rewind=np.zeros(b.count),
+        s = dataclasses.replace(
+            s, rewind=np.zeros(b.count), rewound=False,
             acted=ContactSet.concatenate([s.acted, c.select(resolved)]),
             impulses=np.concatenate([s.impulses, impulses[resolved]]),
             impact_count=int(stats[ISLANDS]),
         )  # fmt: skip
+        return s, pushed, rewind
+
+    def _displaced(self, unrewound) -> np.ndarray:
+        """(n,) bool: the bodies whose every point may be further than its contact slop from
+        where it was at ``unrewound`` ((position, orientation) before a time of impact
+        stepped bodies back). A body that ends its step nearer than that to where the
+        detection found its contacts has no contact deeper than the slop that it lacked
+        there (the slop of the thinnest moving body, whatever it touches)."""
+        b = self.bodies
+        position, orientation = unrewound
+        shift = np.linalg.norm(b.position - position, axis=1)
+        # the angle between the two orientations: 2 acos(|q1 . q2|)
+        near = np.abs(np.einsum("ij,ij->i", b.orientation, orientation))
+        angle = 2.0 * np.arccos(np.minimum(near, 1.0))
+        slop = SLOP_FRACTION * np.minimum(b.thickness, b.thickness[~b.static].min())
+        return shift + angle * b.size > slop
+
+    def _step_back_again(self, s, carried, solved, reach_back) -> StepState:
+        """The contacts of the ``carried`` (n,) bool bodies found where the impacts left them;
+        a body that ran into one it did not touch at its collision goes back to that moment."""
+        detector, c = self._collision, s.contacts
+        pairs = detector.candidates(s.candidate_count)
+        moved = carried[pairs[:, 0]] | carried[pairs[:, 1]]
+        if not moved.any():
+            return s
+        fresh, _ = detector.contacts(
+            pairs[moved], self.bodies.full("position"), self.bodies.full("orientation"),
+            s.convex_cache,
+        )  # fmt: skip
+        kept = ~(carried[c["body_a"]] | carried[c["body_b"]])
+        contacts = ContactSet.concatenate([c.select(kept), fresh])
+        return self._step_back(s, contacts, c, solved, reach_back, since=s.unrewound)
 
     def _fall_asleep(self, s: StepState) -> StepState:
         """Islands still for long enough fall asleep with zero velocity."""
