@@ -178,6 +178,16 @@ def test_two_touching_cubes_never_pass_into_a_third(speed):
     assert worst <= 0.01
 
 
+def settle_stack(world, bodies, seconds=2.0):
+    """Step ``world`` for ``seconds``: the deepest contact after any step (m) and the
+    ``bodies``' final heights (m)."""
+    deepest = 0.0
+    for _ in range(round(seconds / DT)):
+        world.step()
+        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+    return deepest, [world.position(b)[2] for b in bodies]
+
+
 def test_two_touching_plates_land_on_a_plate_in_their_order():
     """Two 1 m x 1 m x 1 mm plates touching face to face fall at 0.4 m/s onto a plate on the
     floor: no contact deeper than 1 % of a plate, and the stack ends 0.5 / 1.5 / 2.5 mm."""
@@ -191,12 +201,8 @@ def test_two_touching_plates_land_on_a_plate_in_their_order():
         )
         for k in range(2)
     ]
-    deepest = 0.0
-    for _ in range(round(2.0 / DT)):
-        world.step()
-        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+    deepest, heights = settle_stack(world, bodies)
     assert deepest <= 0.01 * 0.001
-    heights = [world.position(b)[2] for b in bodies]
     np.testing.assert_allclose(heights, [0.0005, 0.0015, 0.0025], atol=0.01 * 0.001)
 
 
@@ -210,10 +216,6 @@ def test_ten_plates_dropped_one_above_another_stack_in_their_order():
     bodies = [
         world.add_body(plate, mass=1.0, position=(0, 0, 0.0005 + 0.002 * k)) for k in range(10)
     ]
-    deepest = 0.0
-    for _ in range(round(2.0 / DT)):
-        world.step()
-        deepest = max(deepest, world.contacts["depths"].max(initial=0.0))
+    deepest, heights = settle_stack(world, bodies)
     assert deepest <= 0.01 * 0.001
-    heights = [world.position(b)[2] for b in bodies]
     np.testing.assert_allclose(heights, 0.0005 + 0.001 * np.arange(10), atol=0.01 * 0.001)

@@ -198,6 +198,31 @@ _NO_ENERGY_ADDED = Bound(
 _MOMENTUM_KEPT = Bound(1e-6, "physics: nothing outside acts, so momentum is kept; 1e-6 allowed")
 
 
+def _torque_free(energy: float, momentum: float) -> tuple:
+    """The metrics of a torque-free case: the relative drifts of the kinetic energy and of
+    |L|, which may change by ``energy`` and ``momentum`` (|L| unchanged by construction in
+    thesis_rbd, which integrates L itself)."""
+    return (
+        (
+            "energy_drift",
+            "kinetic energy drift, relative",
+            Bound(
+                energy,
+                f"physics: torque-free motion conserves energy; {format_number(energy)} allowed",
+            ),
+        ),
+        (
+            "momentum_drift",
+            "|L| drift, relative",
+            Bound(
+                momentum,
+                f"physics: torque-free motion conserves L; {format_number(momentum)} allowed",
+                construction=("ours",),
+            ),
+        ),
+    )
+
+
 def _far_end_share(trace: dict, spec) -> float:
     """The row's far end's final velocity along the row over the mean velocity P / M."""
     masses = np.array([spec.bodies[i].mass for i in spec.dynamic()])
@@ -528,22 +553,7 @@ CASES = {
         "omega": ROD_SPIN,
         "engines": ("ours",),
         "peers": FREE_PEERS,
-        "metrics": (
-            (
-                "energy_drift",
-                "kinetic energy drift, relative",
-                Bound(1e-6, "physics: torque-free motion conserves energy; 1e-6 allowed"),
-            ),
-            (
-                "momentum_drift",
-                "|L| drift, relative",
-                Bound(
-                    1e-9,
-                    "physics: torque-free motion conserves L; 1e-9 allowed",
-                    construction=("ours",),
-                ),
-            ),
-        ),
+        "metrics": _torque_free(1e-6, 1e-9),
     },
     "high_spin": {
         "label": "high spin, 50 rad/s near the intermediate axis",
@@ -551,22 +561,7 @@ CASES = {
         "omega": HIGH_SPIN,
         "engines": ("ours",),
         "peers": FREE_PEERS,
-        "metrics": (
-            (
-                "energy_drift",
-                "kinetic energy drift, relative",
-                Bound(1e-3, "physics: torque-free motion conserves energy; 0.1 % allowed"),
-            ),
-            (
-                "momentum_drift",
-                "|L| drift, relative",
-                Bound(
-                    1e-6,
-                    "physics: torque-free motion conserves L; 1e-6 allowed",
-                    construction=("ours",),
-                ),
-            ),
-        ),
+        "metrics": _torque_free(1e-3, 1e-6),
     },
     "long_run": {
         "label": "long run, tumbling box",
@@ -574,22 +569,7 @@ CASES = {
         "omega": TUMBLE,
         "engines": ("ours",),
         "peers": FREE_PEERS,
-        "metrics": (
-            (
-                "energy_drift",
-                "kinetic energy drift, relative",
-                Bound(1e-6, "physics: torque-free motion conserves energy; 1e-6 allowed"),
-            ),
-            (
-                "momentum_drift",
-                "|L| drift, relative",
-                Bound(
-                    1e-9,
-                    "physics: torque-free motion conserves L; 1e-9 allowed",
-                    construction=("ours",),
-                ),
-            ),
-        ),
+        "metrics": _torque_free(1e-6, 1e-9),
     },
 }
 
