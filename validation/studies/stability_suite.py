@@ -467,7 +467,7 @@ CASES = {
         "measure": lambda trace, spec: {"far_end_share": _far_end_share(trace, spec)},
         "metrics": (
             ("energy_gain", "kinetic energy gain, relative", _NO_ENERGY_ADDED),
-            ("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),
+            ("linear_momentum_drift", "linear momentum drift, relative", _MOMENTUM_KEPT),
             (
                 "far_end_share",
                 "far end's final speed / (P / M)",
@@ -503,7 +503,7 @@ CASES = {
         "metrics": (
             ("max_overlap", "largest overlap along the row (m)", _share_of(1.0, CUBE_EDGE)),
             ("energy_gain", "kinetic energy gain, relative", _NO_ENERGY_ADDED),
-            ("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),
+            ("linear_momentum_drift", "linear momentum drift, relative", _MOMENTUM_KEPT),
         ),
     },
     "plate_column": {
@@ -544,7 +544,7 @@ CASES = {
         "scene": lambda: scenes.drifting_pair(1e-3),
         "engines": ("ours",),
         "peers": HARD_PEERS,
-        "metrics": (("momentum_drift", "momentum drift, relative", _MOMENTUM_KEPT),),
+        "metrics": (("linear_momentum_drift", "linear momentum drift, relative", _MOMENTUM_KEPT),),
     },
     "spinning_rod": {
         "label": "1 x 1 x 20 cm rod tumbling at 100 rad/s",
@@ -714,7 +714,7 @@ def _run_contact(name: str, engine: str, seconds: float, rate: int) -> dict:
     momentum0 = np.linalg.norm(trace["momentum"][0])
     if spec.gravity == 0.0 and momentum0 > 0.0:
         drift = np.linalg.norm(trace["momentum"] - trace["momentum"][0], axis=1).max()
-        result["momentum_drift"] = float(drift / momentum0)
+        result["linear_momentum_drift"] = float(drift / momentum0)
     if "measure" in case:
         result.update(case["measure"](trace, spec))
     if "reference" in case:
