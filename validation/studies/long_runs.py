@@ -36,7 +36,7 @@ SPIN = (30.0, 0.0, 40.0)
 TUMBLE = (0.4, 2.0, -1.1)
 LINEAR_VELOCITY = (1.0, -2.0, 0.5)
 CHECKPOINTS = 100
-INTEGRATORS = ("euler", "symplectic_euler", "midpoint", "rk4")
+INTEGRATORS = ("euler", "symplectic_euler", "midpoint", "rk4", "verlet")
 FAR_METHODS = ("rk4", "pybullet_multibody")
 
 # Pass/fail bound of the high-spin run: torque-free motion conserves kinetic energy (physics);

@@ -540,8 +540,9 @@ CASES = {
         ),
     },
     "drifting_pair": {
-        "label": "two cubes drifting at 1 mm/s, zero g, sleeping on",
+        "label": "two cubes drifting at 1 mm/s for 10 s, zero g, sleeping on",
         "scene": lambda: scenes.drifting_pair(1e-3),
+        "seconds": 10.0,
         "engines": ("ours",),
         "peers": HARD_PEERS,
         "metrics": (("linear_momentum_drift", "linear momentum drift, relative", _MOMENTUM_KEPT),),
@@ -596,7 +597,9 @@ def cases(scale: str) -> list[Case]:
             elif spec["scene"] == "free":
                 params["seconds"] = FREE_SECONDS[scale]
             else:
-                params["seconds"] = SECONDS[scale]
+                # a case may need longer than the others to show its fault (a body that falls
+                # asleep in mid-flight does so after a few seconds still)
+                params["seconds"] = max(SECONDS[scale], spec.get("seconds", 0.0))
             out.append(Case(NAME, params))
     return out
 
