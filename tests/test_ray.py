@@ -240,3 +240,52 @@ def test_bad_pose_and_tree_raise():
         rbd.ray_cast(tree, np.diag([1.0, 2.0, 1.0, 1.0]), [[0, 0, 2]], [[0, 0, -1]])
     with pytest.raises(ValueError, match="tree"):
         rbd.ray_cast(tree.mesh, np.eye(4), [[0, 0, 2]], [[0, 0, -1]])
+
+
+@pytest.mark.parametrize("posed", [False, True], ids=["identity", "random_pose"])
+@pytest.mark.parametrize(
+    "mesh",
+    [
+        rbd.shapes.box((2.0, 1.0, 0.5)),
+        rbd.shapes.icosphere(1.0, 2),
+        rbd.shapes.cylinder(0.5, 2.0, 24),
+        rbd.shapes.icosphere(1e-3, 1),
+    ],
+    ids=["box", "icosphere", "cylinder", "small_icosphere"],
+)
+def test_rays_through_shared_edges_and_corners_never_slip_through(mesh, posed):
+    """12 500 rays per case (10^5 in all) aimed through a point of a triangle's edge, a fifth
+    of them through a corner, towards the inside of a convex closed mesh: each enters there,
+    so its first hit is that point, 6 sizes along the ray (a floating-point barycentric test
+    lets rays slip between two triangles that share the edge and report the far side)."""
+    rng = np.random.default_rng(7)
+    count = 12_500
+    T = np.eye(4)
+    if posed:
+        T[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+        T[:3, 3] = rng.normal(size=3)
+    size = np.ptp(mesh.vertices, axis=0).max()
+    corners = mesh.vertices[mesh.faces[rng.integers(0, len(mesh.faces), count)]]
+    k = rng.integers(0, 3, count)
+    along = np.where(rng.random(count) < 0.2, 0.0, rng.uniform(0.0, 1.0, count))
+    rows = np.arange(count)
+    start, end = corners[rows, k], corners[rows, (k + 1) % 3]
+    target = start + along[:, None] * (end - start)
+    thinnest = np.ptp(mesh.vertices, axis=0).min()
+    inside = mesh.vertices.mean(axis=0) + 0.05 * thinnest * rng.uniform(-1, 1, (count, 3))
+    direction = inside - target
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    origins = target - 6.0 * size * direction
+    R, p = T[:3, :3], T[:3, 3]
+    hits = rbd.ray_cast(rbd.OBBTree(mesh), T, origins @ R.T + p, direction @ R.T)
+    assert hits.hit.all()
+    np.testing.assert_allclose(hits.distance, 6.0 * size, rtol=1e-9)
+
+
+def test_extreme_directions_are_normalised_without_overflow():
+    """A direction's length does not matter: 1e160 (whose square overflows) and 1e-200
+    (whose square is 0) give the hit of a unit direction."""
+    tree = rbd.OBBTree(rbd.shapes.box((2.0, 2.0, 2.0)))
+    for scale in (1e160, 1e-200, 1.0):
+        hits = rbd.ray_cast(tree, np.eye(4), (0.0, 0.0, -5.0), (0.0, 3e-3 * scale, scale))
+        np.testing.assert_allclose(hits.distance, [4.0 * np.sqrt(1 + 9e-6)], rtol=1e-12)

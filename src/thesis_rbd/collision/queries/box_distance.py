@@ -154,9 +154,13 @@ def triangle_box_gap(v0, v1, v2, h, cutoff):
     )
     nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
     if nn > 0.0:
-        s = n[0] * v0[0] + n[1] * v0[1] + n[2] * v0[2]
+        # every corner projected: the normal of a triangle with (nearly) collinear corners
+        # is round-off, and the corners are not at one height along it
+        p0 = n[0] * v0[0] + n[1] * v0[1] + n[2] * v0[2]
+        p1 = n[0] * v1[0] + n[1] * v1[1] + n[2] * v1[2]
+        p2 = n[0] * v2[0] + n[1] * v2[1] + n[2] * v2[2]
         r = h0 * abs(n[0]) + h1 * abs(n[1]) + h2 * abs(n[2])
-        g = max(g, (abs(s) - r) / math.sqrt(nn))
+        g = max(g, _interval_gap(p0, p1, p2, r) / math.sqrt(nn))
     # The line from the box centre through the triangle's centroid.
     c = (
         (v0[0] + v1[0] + v2[0]) / 3.0,

@@ -93,37 +93,65 @@ def _slab(P, L, k, o, d, far):
 
 
 @njit
-def _triangle_hit(P, L, t, o, d):
-    """Distance along the ray o + s d (unit d, mesh frame) to triangle t, or inf."""
-    v0 = corner(P, L, t, 0)
-    e1 = sub(corner(P, L, t, 1), v0)
-    e2 = sub(corner(P, L, t, 2), v0)
-    p = cross(d, e2)
-    det = dot(e1, p)
-    # A ray in the triangle's plane (or a flat triangle) gives det = 0 up to round-off.
-    if abs(det) <= 1e-14 * math.sqrt(dot(e1, e1) * dot(e2, e2)):
+def _ray_space(d):
+    """The shear that takes the ray direction ``d`` (unit, mesh frame) to +z: the axis of
+    its largest component ``kz``, the two others ``kx``, ``ky`` (swapped where d[kz] < 0, so
+    that triangles keep their winding), and the shear ``(Sx, Sy, Sz)``."""
+    kz = 0
+    if abs(d[1]) > abs(d[kz]):
+        kz = 1
+    if abs(d[2]) > abs(d[kz]):
+        kz = 2
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    if d[kz] < 0.0:
+        kx, ky = ky, kx
+    return kx, ky, kz, d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]
+
+
+@njit
+def _sheared(v, o, shear):
+    """Corner ``v`` in ray space: relative to the origin ``o``, sheared along the ray."""
+    kx, ky, kz, sx, sy, _ = shear
+    a = (v[0] - o[0], v[1] - o[1], v[2] - o[2])
+    return a[kx] - sx * a[kz], a[ky] - sy * a[kz], a[kz]
+
+
+@njit
+def _triangle_hit(P, L, t, o, shear):
+    """Distance along the ray from ``o`` (mesh frame; its direction unit, given by its ray
+    space ``shear``) to triangle t, or inf.
+
+    Watertight (Woop, Benthin and Wald's test): each corner is taken to ray space on its own
+    and each edge's function is computed from its two corners alone, so two triangles that
+    share an edge compute exactly opposite values for it and a ray through the edge, or
+    through a shared corner, cannot slip between them."""
+    ax, ay, az = _sheared(corner(P, L, t, 0), o, shear)
+    bx, by, bz = _sheared(corner(P, L, t, 1), o, shear)
+    cx, cy, cz = _sheared(corner(P, L, t, 2), o, shear)
+    u = cx * by - cy * bx
+    v = ax * cy - ay * cx
+    w = bx * ay - by * ax
+    if (u < 0.0 or v < 0.0 or w < 0.0) and (u > 0.0 or v > 0.0 or w > 0.0):
         return math.inf
-    inv = 1.0 / det
-    w = sub(o, v0)
-    u = dot(w, p) * inv
-    if u < 0.0 or u > 1.0:
+    det = u + v + w
+    # a ray in the triangle's plane, or a triangle of zero area
+    if det == 0.0:
         return math.inf
-    q = cross(w, e1)
-    v = dot(d, q) * inv
-    if v < 0.0 or u + v > 1.0:
-        return math.inf
-    s = dot(e2, q) * inv
+    sz = shear[5]
+    s = (u * az + v * bz + w * cz) * sz / det
     return s if s >= 0.0 else math.inf
 
 
 @njit
 def _first_hit(P, L, o, d, max_distance, stack):
     """(distance, face) of the ray's first hit within ``max_distance`` (inf, -1 if none)."""
+    shear = _ray_space(d)
     best = max_distance
     face = -1
     root = L[6]
     if root < 0:
-        s = _triangle_hit(P, L, -root - 1, o, d)
+        s = _triangle_hit(P, L, -root - 1, o, shear)
         if s < math.inf and s <= best:
             return s, -root - 1
         return math.inf, -1
@@ -141,7 +169,7 @@ def _first_hit(P, L, o, d, max_distance, stack):
         c1 = child(P, L, x, 1)
         if c0 == c1:
             # A classic tree's leaf: its one triangle.
-            s = _triangle_hit(P, L, -c0 - 1, o, d)
+            s = _triangle_hit(P, L, -c0 - 1, o, shear)
             if s < math.inf and s <= best:
                 best = s
                 face = -c0 - 1
@@ -151,7 +179,7 @@ def _first_hit(P, L, o, d, max_distance, stack):
         for side in range(2):
             code = c0 if side == 0 else c1
             if code < 0:
-                s = _triangle_hit(P, L, -code - 1, o, d)
+                s = _triangle_hit(P, L, -code - 1, o, shear)
                 if s < math.inf and s <= best:
                     best = s
                     face = -code - 1
@@ -194,17 +222,23 @@ def _ray_kernel(P, T, origins, directions, max_distance):
     if not pose_ok(T):
         return 1, hit, distance, points, normals, faces
     for i in range(n):
-        length = 0.0
+        largest = 0.0
         for j in range(3):
             if not (np.isfinite(origins[i, j]) and np.isfinite(directions[i, j])):
                 return 2 + i, hit, distance, points, normals, faces
-            length += directions[i, j] * directions[i, j]
-        if length == 0.0:
+            largest = max(largest, abs(directions[i, j]))
+        if largest == 0.0:
             return 2 + i, hit, distance, points, normals, faces
     L = layout(P)
     stack = np.empty((2 * tree_depth(P) + 4, 2))
     for i in range(n):
-        length = math.sqrt(directions[i, 0] ** 2 + directions[i, 1] ** 2 + directions[i, 2] ** 2)
+        # scaled by the largest component first: |d|^2 of 1e160 overflows, of 1e-200 is 0
+        largest = max(abs(directions[i, 0]), abs(directions[i, 1]), abs(directions[i, 2]))
+        scaled = (
+            directions[i, 0] / largest,
+            directions[i, 1] / largest,
+            directions[i, 2] / largest,
+        )
         # The ray in the mesh frame: o = R^T (origin - p), d = R^T direction / |direction|.
         w = (origins[i, 0] - T[0, 3], origins[i, 1] - T[1, 3], origins[i, 2] - T[2, 3])
         o = (
@@ -212,7 +246,8 @@ def _ray_kernel(P, T, origins, directions, max_distance):
             T[0, 1] * w[0] + T[1, 1] * w[1] + T[2, 1] * w[2],
             T[0, 2] * w[0] + T[1, 2] * w[1] + T[2, 2] * w[2],
         )
-        u = (directions[i, 0] / length, directions[i, 1] / length, directions[i, 2] / length)
+        norm = math.sqrt(dot(scaled, scaled))
+        u = (scaled[0] / norm, scaled[1] / norm, scaled[2] / norm)
         d = (
             T[0, 0] * u[0] + T[1, 0] * u[1] + T[2, 0] * u[2],
             T[0, 1] * u[0] + T[1, 1] * u[1] + T[2, 1] * u[2],
