@@ -483,3 +483,23 @@ def test_a_stale_cached_edge_pair_does_not_hide_an_overlap(seed_a, seed_b):
     warm, _ = pair.contacts(cache)
     assert len(warm["depths"]) == len(cold["depths"]) >= 1
     np.testing.assert_allclose(warm["depths"], cold["depths"], atol=1e-12 * pair.size)
+
+
+def test_a_corner_the_clip_keeps_has_no_gap_beyond_the_margin():
+    """Two unit cubes face to face, tilted 5 mrad from parallel (an example hypothesis
+    found): the clip keeps two corners by their height above the reference face, and along
+    the pair's normal their gaps came out 3e-9 beyond the speculative margin. No contact's
+    gap exceeds the margin, and the pair still meets the oracle."""
+    cube = rbd.shapes.box((1.0, 1.0, 1.0))
+    pair = Pair(
+        cube, cube,
+        (np.zeros(3), np.array([0.5799686609772982, 0.13155995106814494, 0.3217803368403166,
+                                0.7367399448801994])),
+        (np.array([-0.3221515534485455, 0.12041778862906824, 0.9410383566516024]),
+         np.array([0.5797051195777919, 0.13331266465119831, 0.32601865023329246,
+                   0.734766321682586])),
+    )  # fmt: skip
+    contacts, _ = pair.contacts()
+    assert len(contacts["depths"]) == 4
+    assert contacts["depths"].min() >= -pair.margin()
+    check_against_oracle(pair)

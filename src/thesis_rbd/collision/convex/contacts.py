@@ -558,8 +558,8 @@ def convex_contacts_for_pairs(
                 nx, ny, nz = -nx, -ny, -nz
         level = max(flat, speculative * min(thicknesses[ha], thicknesses[hb]))
         _finish_pair_contacts(
-            i, j, c, count, separation, level, nx, ny, nz, Ra, body_a, body_b, out_normals,
-            out_depths,
+            i, j, c, count, separation, level, margin, nx, ny, nz, Ra, body_a, body_b,
+            out_normals, out_depths,
         )  # fmt: skip
         c += count
     _write_output(
@@ -571,7 +571,8 @@ def convex_contacts_for_pairs(
 
 @njit(allocates=False, inline="always")
 def _finish_pair_contacts(
-    i, j, c, count, separation, level, nx, ny, nz, Ra, body_a, body_b, out_normals, out_depths
+    i, j, c, count, separation, level, margin, nx, ny, nz, Ra, body_a, body_b, out_normals,
+    out_depths,
 ):  # fmt: skip
     """Rows ``c`` to ``c + count``: the pair, the world normal, and the depths.
 
@@ -581,7 +582,9 @@ def _finish_pair_contacts(
     the bit; the others less by as much as their corners lie above the deepest: a corner that
     only the step's reach kept, higher above the other body than that, is a gap the solver
     lets close, not a support (a thin plate tilted on the floor would rest on its raised
-    edge)."""
+    edge). No gap exceeds the pair's ``margin``: the clip keeps a corner by its height above
+    the reference face, and measured along the pair's normal (tilted from that face's by as
+    much as the faces are) its gap can come out beyond the margin by round-off's order."""
     wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
     wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
     wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
@@ -592,7 +595,7 @@ def _finish_pair_contacts(
         body_a[r], body_b[r] = i, j
         out_normals[r, 0], out_normals[r, 1], out_normals[r, 2] = wx, wy, wz
         above = deepest - out_depths[r]
-        out_depths[r] = -separation if above <= level else -separation - above
+        out_depths[r] = -separation if above <= level else max(-separation - above, -margin)
 
 
 @njit(inline="always")
