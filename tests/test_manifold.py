@@ -110,7 +110,9 @@ def errors(pair):
 def test_shallow_box_contacts_lie_on_the_exact_least_penetration_axis(seed, depth_fraction):
     pair = placed_pair(seed, "box", "box", depth_fraction)
     depth, normal_error, depth_error, outside = errors(pair)
-    assume(depth > 1e-6 * pair["size"])
+    # shallow, as in a stack: a sideways slide can push a corner a fifth of the size in,
+    # where the region's axis is a known miss (test_known_misses_of_the_region_axis)
+    assume(1e-6 * pair["size"] < depth <= 0.05 * pair["size"])
     assert normal_error <= EXACT
     assert depth_error <= EXACT
     assert outside <= EXACT
@@ -131,7 +133,7 @@ MANIFOLD_MISSES = pytest.mark.xfail(
     strict=True,
     reason="manifold.py takes a region's axis from the overlap of the region's own faces only: "
     "where a corner of a random hull or an icosphere meets another corner, and where "
-    "icospheres are pushed deep, that is not the bodies' least-penetration axis (issue 11 "
+    "icospheres or boxes are pushed deep, that is not the bodies' least-penetration axis (issue 11 "
     "gives convex pairs an exact separating-axis test)",
 )
 
@@ -144,6 +146,7 @@ MANIFOLD_MISSES = pytest.mark.xfail(
         (23, ("hull", "icosphere"), 0.005),  # normal 0.077, depth 6e-4
         (33, ("box", "hull"), 0.01),  # normal 0.002
         (72313494, ("box", "icosphere"), 0.015625),  # normal 0.0065
+        (5408, ("box", "box"), 0.015625),  # slid 21 % deep: normal and depth 0.0078
         (8, ("icosphere", "icosphere"), 0.001),  # normal and depth 1e-4 (depth 1e-3)
         (16, ("icosphere", "icosphere"), 0.02),  # normal and depth 0.03
         (0, ("icosphere", "icosphere"), 0.3),  # normal 0.028, depth 0.012
