@@ -109,3 +109,21 @@ def test_invalid_input_raises():
         OBBTree(rbd.TriangleMesh(np.zeros((0, 3)), np.zeros((0, 3), int)))
     with pytest.raises(ValueError, match="non-finite"):
         OBBTree(rbd.TriangleMesh([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]]))
+
+
+def test_a_float32_tree_far_from_the_origin_stays_tight():
+    """A torus 1e6 m from its mesh origin: the float32 tree's root is the float64 tree's
+    grown by the float32 rounding of its centre (ulp(1e6) / 2 = 3 cm a coordinate, at most
+    5.4 cm along an axis), not padded in proportion to its distance from the origin (2e-6 of
+    1.7e6 m was 3.4 m on every box, and the tree stopped pruning); its other boxes (split
+    along the rounded axes, so not node for node the float64 tree's) by as little in the
+    median; both trees hold every triangle."""
+    torus = rbd.shapes.torus(1.0, 0.3, 100, 25)
+    far = rbd.TriangleMesh(torus.vertices + 1e6, torus.faces)
+    tight = rbd.OBBTree(far, dtype=np.float64)
+    rounded = rbd.OBBTree(far, dtype=np.float32)
+    tight.validate()
+    rounded.validate()
+    grown = rounded.half_extents.astype(np.float64) - tight.half_extents
+    assert grown[tight.root].max() <= 0.055
+    assert np.median(grown) <= 0.055

@@ -41,6 +41,9 @@ _FITS = ("triangles", "hull")
 # rounding of the stored centre and axes: a few ulps for float64; for float32 the axes are
 # rounded to ~6e-8 and are orthonormal only to that accuracy, so 2e-6 leaves a margin.
 _PAD = {np.dtype(np.float64): 1e-12, np.dtype(np.float32): 2e-6}
+# Padding per metre of a box's distance from the mesh origin: float64 rounding in projecting
+# far coordinates (a few ulps, 2.2e-16 each), whatever the stored precision.
+_ARITHMETIC = 1e-14
 
 
 @njit
@@ -137,12 +140,23 @@ def _fit_box(tris, order, start, end, axes, round32, pad, center, half):
     for i in range(3):
         c = axes[i, 0] * mid[0] + axes[i, 1] * mid[1] + axes[i, 2] * mid[2]
         center[i] = np.float32(c) if round32 else c
+    # the padding scales with the box's own extent, not with its distance from the origin:
+    # the stored centre's rounding is measured exactly (back - mid below), and axes
+    # orthonormal to ~6e-8 misplace a corner by that fraction of its distance from the
+    # centre; only the float64 arithmetic of projecting far coordinates adds a few ulps of
+    # that distance
     size = 0.0
+    reach = 0.0
     for j in range(3):
-        size = max(size, abs(mid[j]), hi[j] - lo[j])
+        size = max(size, hi[j] - lo[j])
+        reach = max(reach, abs(mid[j]))
     for j in range(3):
         back = axes[0, j] * center[0] + axes[1, j] * center[1] + axes[2, j] * center[2]
-        half[j] = (0.5 * (hi[j] - lo[j]) + abs(back - mid[j])) * (1.0 + pad) + pad * size
+        half[j] = (
+            (0.5 * (hi[j] - lo[j]) + abs(back - mid[j])) * (1.0 + pad)
+            + pad * size
+            + _ARITHMETIC * reach
+        )
 
 
 @njit
@@ -456,7 +470,8 @@ class OBBTree:
         from the root, and every triangle exactly once.
         """
         tris = np.ascontiguousarray(self._mesh.triangles)
-        tol = 4.0 * _PAD[self.dtype] * max(self._mesh.scale, 1e-300)
+        far = float(np.abs(self._mesh.vertices).max(initial=0.0))
+        tol = 4.0 * (_PAD[self.dtype] * max(self._mesh.scale, 1e-300) + _ARITHMETIC * far)
         node, code = _validate_kernel(
             tris,
             self.centers.astype(np.float64),
