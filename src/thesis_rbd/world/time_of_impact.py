@@ -35,14 +35,18 @@ from thesis_rbd._sorting import unique_sorted
 from thesis_rbd._union_find import find_root, join
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.touching import pairs_deeper, pairs_touch
+from thesis_rbd.dynamics.contact_kinematics import contact_tolerances
+from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION
 from thesis_rbd.dynamics.free_rotation import turn_freely
 
 __all__ = [
     "HALVINGS",
+    "beyond_slop",
     "bisect_to_contact",
     "depth_before",
     "group_contacts",
     "impact_groups",
+    "new_or_deeper",
     "passed_through",
     "step_back_to_impact",
     "unique_pairs",
@@ -270,6 +274,34 @@ def depth_before(body_a, body_b, asked, before_a, before_b, before_depths):
             found[k] = max(found[k], deepest[i])
             i += 1
     return found
+
+
+def new_or_deeper(contacts, before, asked, frozen, thickness, hull_of_body):
+    """Which of the ``asked`` (c,) bool ``contacts`` are of a pair that did not touch in
+    ``before`` (a ``ContactSet`` of the same step, earlier), and which of a convex pair gone
+    deeper than it was there by more than the contact's slop; and, for those, the depth the
+    search may let them reach (m). Returns ``apart``, ``deeper`` (c,) bool and ``allowed``
+    (c,) float64."""
+    a, b = contacts["body_a"], contacts["body_b"]
+    depth = depth_before(a, b, asked, before["body_a"], before["body_b"], before["depths"])
+    apart = depth == -np.inf
+    allowed = depth + contact_tolerances(a, b, frozen, thickness, SLOP_FRACTION)
+    convex = (hull_of_body[a] >= 0) & (hull_of_body[b] >= 0)
+    return apart, ~apart & convex & (contacts["depths"] > allowed), allowed
+
+
+def beyond_slop(bodies, position, orientation):
+    """(n,) bool: the bodies a point of which may lie further than its contact slop from
+    where it was at ``position`` (n, 3), ``orientation`` (n, 4). A body nearer than that to
+    where the detection found its contacts has no contact deeper than the slop that it
+    lacked there (the slop of the thinnest moving body, whatever it touches)."""
+    shift = np.linalg.norm(bodies.position - position, axis=1)
+    # the angle between the two orientations: 2 acos(|q1 . q2|)
+    near = np.abs(np.einsum("ij,ij->i", bodies.orientation, orientation))
+    angle = 2.0 * np.arccos(np.minimum(near, 1.0))
+    thickness = bodies.thickness
+    slop = SLOP_FRACTION * np.minimum(thickness, thickness[~bodies.static].min())
+    return shift + angle * bodies.size > slop
 
 
 @njit

@@ -42,7 +42,6 @@ from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
-from thesis_rbd.dynamics.contact_kinematics import contact_tolerances
 from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION, ContactSettings
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, STATS
 from thesis_rbd.dynamics.forces import (
@@ -72,7 +71,12 @@ from thesis_rbd.world.step_kernel import (
     run_steps,
 )
 from thesis_rbd.world.step_state import StepState
-from thesis_rbd.world.time_of_impact import depth_before, passed_through, step_back_to_impact
+from thesis_rbd.world.time_of_impact import (
+    beyond_slop,
+    new_or_deeper,
+    passed_through,
+    step_back_to_impact,
+)
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
@@ -601,11 +605,9 @@ class World(WorldReadout):
             b.full("thickness"), SLOP_FRACTION,
         )  # fmt: skip
         a_, b_ = c["body_a"], c["body_b"]
-        depth = depth_before(a_, b_, hits, before["body_a"], before["body_b"], before["depths"])
-        apart = depth == -np.inf
-        hull = detector.hull_of_body
-        allowed = depth + contact_tolerances(a_, b_, s.frozen, b.full("thickness"), SLOP_FRACTION)
-        deeper = ~apart & (hull[a_] >= 0) & (hull[b_] >= 0) & (c["depths"] > allowed)
+        apart, deeper, allowed = new_or_deeper(
+            c, before, hits, s.frozen, b.full("thickness"), detector.hull_of_body
+        )
         qualifies = apart | deeper
         flew = movers & ~solved
         if first:
@@ -620,8 +622,7 @@ class World(WorldReadout):
         # it touches)
         if since is None:
             since = (s.start_position[:n], s.start_orientation[:n])
-        displaced = self._displaced(since)
-        travelled = flew | (movers & displaced)
+        travelled = flew | (movers & beyond_slop(b, *since))
         hits &= qualifies & (travelled[a_] | travelled[b_])
         if not hits.any():
             return dataclasses.replace(s, contacts=c)
@@ -646,8 +647,10 @@ class World(WorldReadout):
         within what is left of the step (the plates of a stack landing one on another in one
         step): it is stepped back again, no further than its collision, and resolved, for up
         to ``IMPACT_ROUNDS`` rounds."""
-        n = self.bodies.count
-        solved, reach_back = s.solved[:n].copy(), np.full(n, self.dt)
+        b = self.bodies
+        n = b.count
+        # a body the tunnelling sweep caught keeps the shorter path it has
+        solved, reach_back = s.solved[:n].copy(), s.reach_back[:n].copy()
         islands = 0
         for _ in range(IMPACT_ROUNDS):
             s, pushed, rewind = self._collide(s, solved)
@@ -655,7 +658,7 @@ class World(WorldReadout):
             reach_back[carried] = np.minimum(reach_back[carried], rewind[carried])
             islands += s.impact_count
             solved |= pushed
-            s = self._step_back_again(s, carried & self._displaced(s.unrewound), solved, reach_back)
+            s = self._step_back_again(s, carried & beyond_slop(b, *s.unrewound), solved, reach_back)
             if not s.rewound:
                 break
         return dataclasses.replace(s, rewind=np.zeros(n), rewound=False, impact_count=islands)
@@ -683,21 +686,6 @@ class World(WorldReadout):
             impact_count=int(stats[ISLANDS]),
         )  # fmt: skip
         return s, pushed, rewind
-
-    def _displaced(self, unrewound) -> np.ndarray:
-        """(n,) bool: the bodies whose every point may be further than its contact slop from
-        where it was at ``unrewound`` ((position, orientation) before a time of impact
-        stepped bodies back). A body that ends its step nearer than that to where the
-        detection found its contacts has no contact deeper than the slop that it lacked
-        there (the slop of the thinnest moving body, whatever it touches)."""
-        b = self.bodies
-        position, orientation = unrewound
-        shift = np.linalg.norm(b.position - position, axis=1)
-        # the angle between the two orientations: 2 acos(|q1 . q2|)
-        near = np.abs(np.einsum("ij,ij->i", b.orientation, orientation))
-        angle = 2.0 * np.arccos(np.minimum(near, 1.0))
-        slop = SLOP_FRACTION * np.minimum(b.thickness, b.thickness[~b.static].min())
-        return shift + angle * b.size > slop
 
     def _step_back_again(self, s, carried, solved, reach_back) -> StepState:
         """The contacts of the ``carried`` (n,) bool bodies found where the impacts left them;

@@ -582,9 +582,8 @@ def _finish_pair_contacts(
     the bit; the others less by as much as their corners lie above the deepest: a corner that
     only the step's reach kept, higher above the other body than that, is a gap the solver
     lets close, not a support (a thin plate tilted on the floor would rest on its raised
-    edge). No gap exceeds the pair's ``margin``: the clip keeps a corner by its height above
-    the reference face, and measured along the pair's normal (tilted from that face's by as
-    much as the faces are) its gap can come out beyond the margin by round-off's order."""
+    edge). No gap exceeds the ``margin``: along the normal, tilted from the reference face's
+    where the clip measured it, a kept corner's gap can pass it by round-off."""
     wx = Ra[0, 0] * nx + Ra[0, 1] * ny + Ra[0, 2] * nz
     wy = Ra[1, 0] * nx + Ra[1, 1] * ny + Ra[1, 2] * nz
     wz = Ra[2, 0] * nx + Ra[2, 1] * ny + Ra[2, 2] * nz
