@@ -144,7 +144,7 @@ def pairs(
     direction = np.random.default_rng(seed_a ^ seed_b).normal(size=3)
     if situation in ("aligned", "nearly_parallel"):
         direction = ra.apply(np.eye(3)[draw(st.integers(0, 2))])
-    depth = draw(st.sampled_from(depths))
+    depth = draw(depths if isinstance(depths, st.SearchStrategy) else st.sampled_from(depths))
     return placed_pair(mesh_a, mesh_b, ra, rb, direction, depth, draw(scales))
 
 
@@ -503,3 +503,36 @@ def test_a_corner_the_clip_keeps_has_no_gap_beyond_the_margin():
     assert len(contacts["depths"]) == 4
     assert contacts["depths"].min() >= -pair.margin()
     check_against_oracle(pair)
+
+
+def points_outside(points, vertices):
+    """(c,) largest signed distance of each point to the face planes of the hull of
+    ``vertices``: > 0 outside by that much (NumPy oracle, ``hull_planes``)."""
+    planes, offsets = hull_planes(vertices)
+    return (points @ planes.T - offsets).max(axis=1)
+
+
+@settings(max_examples=200, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    pairs(depths=st.floats(-6, math.log10(0.3)).map(lambda e: 10.0**e)),
+    st.booleans(),
+)
+def test_contact_points_lie_in_both_bodies(pair, apart):
+    """Every contact point of every feature combination (face clipping, edge pairs, vertex
+    on face, speculative contacts) lies in both hulls: outside each by at most its contact's
+    |depth|, plus half the speculative margin (a kept corner up to the margin above the
+    deepest reports the pair's depth, and its point lies midway between the surfaces), plus
+    1e-9 of the size. A point that is right in depth and normal but far from the overlap
+    applies the right impulse with the wrong torque."""
+    if apart:
+        # the same pair moved apart along its best axis by up to the margin: speculative
+        depth, normal, *_ = least_penetration(pair.points_a, pair.points_b)
+        shift = normal * (depth + pair.margin() * 0.9)
+        pair = Pair(
+            *pair.meshes, (pair.position[0], pair.orientation[0]),
+            (pair.position[1] + shift, pair.orientation[1]),
+        )  # fmt: skip
+    contacts, _ = pair.contacts()
+    allowed = np.abs(contacts["depths"]) + 0.5 * pair.margin() + 1e-9 * pair.size
+    for vertices in (pair.points_a, pair.points_b):
+        assert (points_outside(contacts["points"], vertices) <= allowed).all()
