@@ -26,13 +26,18 @@ Corners are ``(x, y, z)`` tuples; nothing is allocated.
 from __future__ import annotations
 
 import math
+import sys
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision._vec3 import add, cross, dot, scale, sub
 from thesis_rbd.collision.mesh.triangle import tri_tri_overlap
 
-__all__ = ["point_segment", "segment_segment", "triangle_distance", "triangle_gap"]
+__all__ = ["APART", "point_segment", "segment_segment", "triangle_distance", "triangle_gap"]
 
+# The distance of a pair the exact test calls apart but whose closest points round to one
+# point (apart by less than round-off resolves, as triangles on a fine grid can be): the least
+# positive normal float, so that 0.0 means intersecting and nothing else.
+APART = sys.float_info.min
 # A normal shorter than this fraction of the longest edge squared marks a flat triangle (as in
 # triangle.py).
 _FLAT = 1e-12
@@ -238,7 +243,8 @@ def triangle_distance(p0, p1, p2, q0, q1, q2):
     Returns
     -------
     distance : float
-        0.0 when they intersect (touching counts).
+        0.0 when they intersect (touching counts), positive when they do not: at least
+        ``APART`` where they are apart by less than round-off resolves.
     x, y : tuple of 3 float
         Points on P and on Q, ``distance`` apart (the same point when they intersect).
     """
@@ -257,4 +263,4 @@ def triangle_distance(p0, p1, p2, q0, q1, q2):
         x, y, _ = _closest_features(p, q, n_p, n_q)
         return 0.0, x, y
     x, y, d2 = _closest_features(p, q, n_p, n_q)
-    return math.sqrt(d2), x, y
+    return max(math.sqrt(d2), APART), x, y
