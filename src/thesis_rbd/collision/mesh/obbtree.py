@@ -25,6 +25,8 @@ is tried, and as a last resort the range is halved by count, so the tree is alwa
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
@@ -113,25 +115,30 @@ def _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit, V, F, stamp,
 
 
 @njit
-def _fit_box(tris, order, start, end, axes, round32, pad, center, half):
-    """Centre and half-extents of the box with ``axes`` around ``order[start:end]``.
+def _fit_box(tris, order, start, end, axes, round32, pad, origin, center, half):
+    """Centre (relative to ``origin``) and half-extents of the box with ``axes`` around
+    ``order[start:end]``.
 
     With ``round32`` the axes are first rounded to float32 (in place) so the stored box is
-    the one whose extents were measured; the centre shift caused by rounding it is added to
-    the half-extents, which are then padded so the rounded box still contains every corner.
+    the one whose extents were measured, and so is the centre's offset from ``origin``; the
+    centre shift caused by rounding it is added to the half-extents, which are then padded
+    so the rounded box still contains every corner.
     """
     if round32:
         for i in range(3):
             for j in range(3):
                 axes[i, j] = np.float32(axes[i, j])
+    # corners measured from the origin: with float32-rounded axes (orthonormal to ~6e-8 only)
+    # a centre rebuilt through them is off by that fraction of the distances involved,
+    # which are then the mesh's own size, not its distance from the frame's origin
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     for k in range(start, end):
         t = order[k]
         for v in range(3):
-            x = tris[t, v, 0]
-            y = tris[t, v, 1]
-            z = tris[t, v, 2]
+            x = tris[t, v, 0] - origin[0]
+            y = tris[t, v, 1] - origin[1]
+            z = tris[t, v, 2] - origin[2]
             for j in range(3):
                 s = axes[0, j] * x + axes[1, j] * y + axes[2, j] * z
                 lo[j] = min(lo[j], s)
@@ -143,13 +150,14 @@ def _fit_box(tris, order, start, end, axes, round32, pad, center, half):
     # the padding scales with the box's own extent, not with its distance from the origin:
     # the stored centre's rounding is measured exactly (back - mid below), and axes
     # orthonormal to ~6e-8 misplace a corner by that fraction of its distance from the
-    # centre; only the float64 arithmetic of projecting far coordinates adds a few ulps of
-    # that distance
+    # centre; only the float64 arithmetic of projecting far coordinates (queries work in
+    # the mesh frame) adds a few ulps of that distance
     size = 0.0
     reach = 0.0
+    far = math.sqrt(origin[0] ** 2 + origin[1] ** 2 + origin[2] ** 2)
     for j in range(3):
         size = max(size, hi[j] - lo[j])
-        reach = max(reach, abs(mid[j]))
+        reach = max(reach, abs(mid[j]) + far)
     for j in range(3):
         back = axes[0, j] * center[0] + axes[1, j] * center[1] + axes[2, j] * center[2]
         half[j] = (
@@ -192,8 +200,9 @@ def _partition(tris, order, start, end, axes):
 
 
 @njit
-def _build(tris, V, F, area, wcent, wmom, leafless, hull_fit, round32, pad):
-    """Top-down build; returns (centers, rotations, half_extents, children, root, depth)."""
+def _build(tris, V, F, area, wcent, wmom, leafless, hull_fit, round32, pad, origin):
+    """Top-down build; returns (centers, rotations, half_extents, children, root, depth),
+    the centres relative to ``origin``."""
     m = tris.shape[0]
     n_nodes = m - 1 if leafless else 2 * m - 1
     centers = np.zeros((n_nodes, 3))
@@ -221,7 +230,7 @@ def _build(tris, V, F, area, wcent, wmom, leafless, hull_fit, round32, pad):
         depth = stack[top, 3]
         max_depth = max(max_depth, depth)
         axes = _fit_axes(tris, order, start, end, area, wcent, wmom, hull_fit, V, F, stamp, node)
-        _fit_box(tris, order, start, end, axes, round32, pad, centers[node], halves[node])
+        _fit_box(tris, order, start, end, axes, round32, pad, origin, centers[node], halves[node])
         rotations[node] = axes
         if end - start == 1:
             # Leaf of the classic tree (never reached by the leafless build).
@@ -338,7 +347,8 @@ class OBBTree:
         False: the classic 2m - 1 node tree with one triangle per leaf box.
     dtype : numpy float dtype
         Storage of the node boxes, ``np.float64`` (default) or ``np.float32`` (half the
-        memory; boxes are padded so they remain conservative). Queries compute in float64.
+        memory; boxes are padded so they remain conservative, and their centres are stored
+        relative to the mesh's middle, ``origin``). Queries compute in float64.
 
     Notes
     -----
@@ -355,7 +365,11 @@ class OBBTree:
     Attributes
     ----------
     centers : (n, 3) dtype
-        Box centres in the mesh frame.
+        Box centres in the mesh frame, relative to ``origin``.
+    origin : (3,) float64
+        The point the centres are measured from: zero for a float64 tree, the middle of the
+        mesh's bounding box for a float32 one (so that a float32 centre is rounded to the
+        mesh's own size, not to its distance from the frame's origin).
     rotations : (n, 3, 3) dtype
         Box axes as columns, mesh frame.
     half_extents : (n, 3) dtype
@@ -372,8 +386,9 @@ class OBBTree:
     Raises
     ------
     ValueError
-        If ``mesh`` is not a TriangleMesh (an empty mesh cannot be one), or an option is
-        invalid.
+        If ``mesh`` is not a TriangleMesh (an empty mesh cannot be one), an option is
+        invalid, or its coordinates are so large (beyond about 1e76) that the fit's moments
+        overflow.
     """
 
     def __init__(self, mesh, fit: str = "triangles", leafless: bool = True, dtype=np.float64):
@@ -394,7 +409,21 @@ class OBBTree:
         self.leafless = bool(leafless)
         self.dtype = dtype
         tris = np.ascontiguousarray(mesh.triangles)
-        area, wcent, wmom = triangle_moments(tris)
+        with np.errstate(over="ignore", invalid="ignore"):
+            area, wcent, wmom = triangle_moments(tris)
+        if not (np.isfinite(area).all() and np.isfinite(wmom).all()):
+            far = float(np.abs(mesh.vertices).max())
+            raise ValueError(
+                f"mesh is too large for the box fit: its triangles' second moments overflow "
+                f"float64 (largest coordinate {far:.3g}; keep coordinates below about 1e76)"
+            )
+        # float32 centres are offsets from the middle of the mesh, so that their rounding
+        # is that of the mesh's own size, wherever the mesh lies in its frame
+        origin = np.zeros(3)
+        if dtype == np.float32:
+            origin = 0.5 * (mesh.vertices.min(axis=0) + mesh.vertices.max(axis=0))
+        self.origin = origin
+        self.origin.flags.writeable = False
         centers, rotations, halves, children, root, depth = _build(
             tris,
             mesh.vertices,
@@ -406,6 +435,7 @@ class OBBTree:
             fit == "hull",
             dtype == np.float32,
             _PAD[dtype],
+            origin,
         )
         self.root = int(root)
         self.depth = int(depth)
@@ -433,8 +463,9 @@ class OBBTree:
         """
         if self._packed is None:
             self._packed = pack_tree(
-                self.centers, self.rotations, self.half_extents, self.children, self.root,
-                self.leafless, self.depth, self._mesh.vertices, self._mesh.faces,
+                self.centers.astype(np.float64) + self.origin, self.rotations,
+                self.half_extents, self.children, self.root, self.leafless, self.depth,
+                self._mesh.vertices, self._mesh.faces,
             )  # fmt: skip
         return self._packed
 
@@ -474,7 +505,7 @@ class OBBTree:
         tol = 4.0 * (_PAD[self.dtype] * max(self._mesh.scale, 1e-300) + _ARITHMETIC * far)
         node, code = _validate_kernel(
             tris,
-            self.centers.astype(np.float64),
+            self.centers.astype(np.float64) + self.origin,
             self.rotations.astype(np.float64),
             self.half_extents.astype(np.float64),
             self.children,
