@@ -28,7 +28,7 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision.convex.sat import EDGES, FACE_A, FACE_B, place_hull, sat_query
 
-__all__ = ["CACHE_AXIS", "gjk_epa_query", "mapped_support", "support_vertex"]
+__all__ = ["CACHE_AXIS", "closest_on_simplex", "gjk_epa_query", "mapped_support", "support_vertex"]
 
 # Cache kind of a GJK separating direction (a direction, no feature)
 CACHE_AXIS = 4
@@ -154,7 +154,7 @@ def _others(face):
 
 
 @njit
-def _closest_on_simplex(P, ia, ib, n, rows):
+def closest_on_simplex(P, ia, ib, n, rows):
     """Point of the simplex P[:n] (n = 1..4) nearest the origin; shrinks the simplex to the
     smallest face holding it (Ericson 5.1.5 / 9.5.2). Returns (count, vx, vy, vz); count 4
     means the origin is inside the tetrahedron."""
@@ -311,7 +311,7 @@ def _gjk(H, ha, hb, R, t, vx, vy, vz, P, ia, ib, rows, tolerance, margin):
                     return -1, vx, vy, vz, 0.0  # no new support point: converged onto the origin
             if v2 - vw <= 1e-12 * v2:
                 return -1, vx, vy, vz, 0.0
-        n, vx, vy, vz = _closest_on_simplex(P, ia, ib, n + 1, rows)
+        n, vx, vy, vz = closest_on_simplex(P, ia, ib, n + 1, rows)
         if n == 4:
             # a flat tetrahedron decides nothing: the signs that put the origin inside it
             # are round-off (the origin may lie off its plane, outside M)

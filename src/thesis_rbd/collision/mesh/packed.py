@@ -7,13 +7,15 @@ row blocks, and kernels index it at row offsets (:func:`layout`)::
 
     row 0         n nodes, n vertices, n faces
     row 1         root code, leafless (0/1), depth
-    row 2         scale, radius, 0
+    row 2         scale, radius, 1 (a hull block follows the faces)
     centers       n rows
     half_extents  n rows
     rotations     3 n rows: rows 3 k : 3 k + 3 are node k's matrix, box axes as columns
     children      n rows: the two child codes (k >= 0 node, k < 0 triangle -k - 1), 0
     vertices      nv rows
     faces         nf rows: vertex indices
+    hull          the mesh's convex hull for the distance query (:mod:`.packed_hull`), its
+                  flat values in rows of three
 
 Counts, codes and indices are integers stored as float64, exact below 2**53; kernels convert
 them with ``int()`` (one instruction). The scale is the mesh's bounding-box diagonal (relative
@@ -27,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd.collision.mesh.packed_hull import hull_block
 
 __all__ = [
     "HEADER_ROWS",
@@ -36,6 +39,7 @@ __all__ = [
     "corner",
     "corner_moved",
     "half_extent",
+    "hull_row",
     "layout",
     "mesh_vertices",
     "node_size",
@@ -66,23 +70,26 @@ def pack_tree(centers, rotations, half_extents, children, root, leafless, depth,
 
     Returns
     -------
-    (3 + 6 n + nv + nf, 3) float64
+    (3 + 6 n + nv + nf + hull rows, 3) float64
     """
     n = len(centers)
     vertices = np.asarray(vertices, dtype=np.float64)
+    hull = hull_block(vertices, faces)
+    hull = np.concatenate([hull, np.zeros(-len(hull) % 3)]).reshape(-1, 3)
     scale = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     radius = float(np.sqrt((vertices * vertices).sum(axis=1).max()))
     codes = np.zeros((n, 3))
     codes[:, :2] = children
     packed = np.concatenate(
         [
-            [[n, len(vertices), len(faces)], [root, int(leafless), depth], [scale, radius, 0.0]],
+            [[n, len(vertices), len(faces)], [root, int(leafless), depth], [scale, radius, 1.0]],
             np.asarray(centers, dtype=np.float64).reshape(n, 3),
             np.asarray(half_extents, dtype=np.float64).reshape(n, 3),
             np.asarray(rotations, dtype=np.float64).reshape(3 * n, 3),
             codes,
             vertices,
             np.asarray(faces, dtype=np.float64),
+            hull,
         ]
     )
     return np.ascontiguousarray(packed, dtype=np.float64)
@@ -130,6 +137,15 @@ def tree_scale(P):
 def tree_radius(P):
     """Largest distance of a vertex from the mesh-frame origin, of a packed tree."""
     return P[2, 1]
+
+
+@njit(allocates=False)
+def hull_row(P, L):
+    """First row of the hull block of a packed tree (:mod:`.packed_hull`), or -1 if it has
+    none."""
+    if P[2, 2] == 0.0:
+        return -1
+    return L[5] + int(P[0, 2])
 
 
 @njit
