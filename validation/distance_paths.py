@@ -109,7 +109,8 @@ def time_path(pair: str, repeats: int = 30, seed: int = 0) -> dict:
     """Per-pose median seconds and distances of ours and python-fcl's along a pair's path.
 
     Returns a dict of (POSES,) arrays: ``ours``, ``fcl`` (seconds), ``ours_distance``,
-    ``fcl_distance``, ``separation`` (the planned gap beyond touching, in metres).
+    ``fcl_distance``, ``separation`` (the planned gap beyond touching, in metres) and
+    ``by_hulls`` (1 where the convex hulls proved the distance: no box was tested).
     """
     from validation.fcl_adapter import fcl_model, fcl_object, fcl_transform, require_fcl
 
@@ -120,7 +121,8 @@ def time_path(pair: str, repeats: int = 30, seed: int = 0) -> dict:
     object_a = fcl_object(fcl_model(mesh_a))
     object_b = fcl_object(fcl_model(mesh_b))
     identity = np.eye(4)
-    out = {key: np.empty(len(poses)) for key in ("ours", "fcl", "ours_distance", "fcl_distance")}
+    keys = ("ours", "fcl", "ours_distance", "fcl_distance", "by_hulls")
+    out = {key: np.empty(len(poses)) for key in keys}
     for k, pose in enumerate(poses):
         object_b.setTransform(fcl_transform(pose))
 
@@ -139,7 +141,9 @@ def time_path(pair: str, repeats: int = 30, seed: int = 0) -> dict:
             fcl_times.append(_median_time(peer, 1))
         out["ours"][k] = np.median(ours_times)
         out["fcl"][k] = np.median(fcl_times)
-        out["ours_distance"][k] = ours()
+        result = rbd.distance(tree_a, identity, tree_b, pose)
+        out["ours_distance"][k] = result.distance
+        out["by_hulls"][k] = result.distance > 0.0 and result.stats["bv_tests"] == 0
         out["fcl_distance"][k] = max(float(peer()), 0.0)
     diagonal = np.linalg.norm(poses[0, :3, 3] - poses[-1, :3, 3])
     out["separation"] = np.linspace(diagonal, 0.0, len(poses))

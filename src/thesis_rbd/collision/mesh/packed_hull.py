@@ -54,26 +54,28 @@ def hull_block(vertices, faces) -> np.ndarray:
     except QhullError:
         return np.zeros(1)
     ids = np.asarray(hull.vertices, dtype=np.int64)
+    h = len(ids)
     local = np.full(len(vertices), -1, dtype=np.int64)
-    local[ids] = np.arange(len(ids))
+    local[ids] = np.arange(h)
     # the vertex graph from the triangulated facets' edges, both ways, without repeats
+    # (as keys a h + b, which sort by a then b)
     simplices = local[np.asarray(hull.simplices, dtype=np.int64)]
-    pairs = simplices[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    pairs = np.unique(np.concatenate([pairs, pairs[:, ::-1]]), axis=0)
-    neighbour_start = np.searchsorted(pairs[:, 0], np.arange(len(ids) + 1))
+    a = simplices.reshape(-1)
+    b = simplices[:, [1, 2, 0]].reshape(-1)
+    keys = np.unique(np.concatenate([a * h + b, b * h + a]))
+    neighbour_start = np.searchsorted(keys // h, np.arange(h + 1))
     # the mesh faces around each hull vertex
     corner_local = local[faces.reshape(-1)]
-    corner_face = np.repeat(np.arange(len(faces)), 3)
-    on_hull = corner_local >= 0
+    on_hull = np.flatnonzero(corner_local >= 0)
     order = np.argsort(corner_local[on_hull], kind="stable")
-    around = corner_face[on_hull][order]
-    face_start = np.searchsorted(corner_local[on_hull][order], np.arange(len(ids) + 1))
+    around = on_hull[order] // 3
+    face_start = np.searchsorted(corner_local[on_hull][order], np.arange(h + 1))
     return np.concatenate(
         [
-            [len(ids), len(pairs), len(around)],
+            [h, len(keys), len(around)],
             vertices[ids].reshape(-1),
             neighbour_start,
-            pairs[:, 1],
+            keys % h,
             face_start,
             around,
         ]
