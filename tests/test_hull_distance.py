@@ -70,6 +70,17 @@ def convex_mesh(kind: str, seed: int) -> rbd.TriangleMesh:
 CONVEX = st.sampled_from(["icosphere", "cylinder", "capsule", "hull"])
 
 
+def inside(mesh_a, T_a, mesh_b, T_b) -> bool:
+    """Whether a vertex of convex mesh A lies inside convex mesh B (Qhull's facet planes):
+    surfaces apart, one body inside the other, whose hulls then overlap."""
+    from scipy.spatial import ConvexHull
+
+    a = np.asarray(mesh_a.vertices) @ np.asarray(T_a)[:3, :3].T + np.asarray(T_a)[:3, 3]
+    b = np.asarray(mesh_b.vertices) @ np.asarray(T_b)[:3, :3].T + np.asarray(T_b)[:3, 3]
+    planes = ConvexHull(b).equations
+    return bool(((a @ planes[:, :3].T + planes[:, 3]) < 0).all(axis=1).any())
+
+
 def unpacked_hull(tree):
     """(coordinates (h, 3), neighbour lists, faces around each hull vertex) of a tree."""
     P = tree.query_array()
@@ -124,8 +135,13 @@ def test_a_flat_mesh_has_no_hull_and_is_searched():
 @settings(max_examples=examples(40))
 @given(kind_a=CONVEX, kind_b=CONVEX, seed=st.integers(0, 2**31), reach=st.floats(1.0, 4.0))
 def test_convex_sides_apart_are_answered_by_the_hulls(kind_a, kind_b, seed, reach):
-    """Two convex meshes apart: the hulls prove the distance (no box tested), equal to a
-    brute force over the triangle pairs and to python-fcl to 1e-9 of the size."""
+    """Two convex meshes apart: the distance equals a search over every triangle pair and
+    python-fcl's to 1e-9 of the size, and the hulls prove it (no box tested) wherever
+    every mesh vertex is a hull vertex and neither body lies inside the other (surfaces
+    apart, hulls overlapping: the trees measure the surfaces' distance). A cylinder's caps
+    are fans around a centre vertex that lies inside the hull's cap faces: where a closest
+    point falls in a fan triangle away from the hull face's corners, the trees are
+    searched."""
     mesh_a = convex_mesh(kind_a, seed)
     mesh_b = convex_mesh(kind_b, seed + 1)
     size = max(mesh_a.scale, mesh_b.scale)
@@ -136,7 +152,9 @@ def test_convex_sides_apart_are_answered_by_the_hulls(kind_a, kind_b, seed, reac
     if exact == 0.0:
         assert result.distance == 0.0
         return
-    assert result.stats["bv_tests"] == 0
+    nested = inside(mesh_a, T_a, mesh_b, T_b) or inside(mesh_b, T_b, mesh_a, T_a)
+    if "cylinder" not in (kind_a, kind_b) and not nested:
+        assert result.stats["bv_tests"] == 0
     assert abs(result.distance - exact) <= 1e-9 * size
     assert abs(result.distance - fcl_distance(mesh_a, T_a, mesh_b, T_b)) <= 1e-9 * size
 
