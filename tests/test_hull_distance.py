@@ -83,7 +83,7 @@ def inside(mesh_a, T_a, mesh_b, T_b) -> bool:
 
 def unpacked_hull(tree):
     """(coordinates (h, 3), neighbour lists, faces around each hull vertex) of a tree."""
-    P = tree.query_array()
+    P = tree.query_array(hull=True)
     F = P.reshape(-1)
     h, xyz, start, neighbours, face_start, faces = hull_fields(F, 3 * hull_row(P, layout(P)))
     coordinates = F[xyz : xyz + 3 * h].reshape(h, 3)
@@ -124,7 +124,7 @@ def test_the_hull_block_finds_every_support_and_lists_the_faces_around():
 def test_a_flat_mesh_has_no_hull_and_is_searched():
     square = rbd.TriangleMesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
     tree = rbd.OBBTree(square)
-    P = tree.query_array()
+    P = tree.query_array(hull=True)
     assert P.reshape(-1)[3 * hull_row(P, layout(P))] == 0.0
     pose = np.eye(4)
     pose[2, 3] = 0.5

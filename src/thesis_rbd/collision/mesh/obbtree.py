@@ -32,7 +32,7 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision.mesh.obb import symmetric_eigenvectors, triangle_moments
 from thesis_rbd.collision.mesh.obb_hull import hull_moments
-from thesis_rbd.collision.mesh.packed import pack_tree, packed_views
+from thesis_rbd.collision.mesh.packed import pack_tree, packed_views, with_hull
 from thesis_rbd.geometry.mesh import TriangleMesh
 
 __all__ = ["OBBTree"]
@@ -440,6 +440,8 @@ class OBBTree:
         self.root = int(root)
         self.depth = int(depth)
         self._packed = None
+        # the packed array with the hull block, once a distance query has asked for it
+        self._hull_packed = None
         if dtype == np.float64:
             # The public box arrays are views into the query array (see :mod:`.packed`).
             self._packed = pack_tree(
@@ -454,12 +456,15 @@ class OBBTree:
         for array in (self.centers, self.rotations, self.half_extents, self.children):
             array.flags.writeable = False
 
-    def query_array(self) -> np.ndarray:
+    def query_array(self, hull: bool = False) -> np.ndarray:
         """The packed (rows, 3) float64 array the query kernels read (:mod:`.packed`).
 
         A float64 tree's box arrays are views into it already; a float32 tree gets a float64
         copy of its boxes (the same, exactly representable values) on its first query, so
-        the kernels are compiled once, for float64.
+        the kernels are compiled once, for float64. With ``hull`` the array also carries the
+        mesh's convex hull (:mod:`.packed_hull`), built on the first query that asks (the
+        distance queries): it costs about half a tree build again, which a tree that is
+        only collided never pays.
         """
         if self._packed is None:
             self._packed = pack_tree(
@@ -467,7 +472,17 @@ class OBBTree:
                 self.half_extents, self.children, self.root, self.leafless, self.depth,
                 self._mesh.vertices, self._mesh.faces,
             )  # fmt: skip
+        if hull and self._hull_packed is None:
+            self._packed = self._hull_packed = with_hull(self._packed)
+            if self.dtype == np.float64:
+                self._view(self._packed)
         return self._packed
+
+    def _view(self, packed) -> None:
+        """Make the public box arrays read-only views into ``packed``."""
+        self.centers, self.rotations, self.half_extents = packed_views(packed)
+        for array in (self.centers, self.rotations, self.half_extents):
+            array.flags.writeable = False
 
     @property
     def mesh(self) -> TriangleMesh:

@@ -7,15 +7,15 @@ row blocks, and kernels index it at row offsets (:func:`layout`)::
 
     row 0         n nodes, n vertices, n faces
     row 1         root code, leafless (0/1), depth
-    row 2         scale, radius, 1 (a hull block follows the faces)
+    row 2         scale, radius, 1 if a hull block follows the faces (else 0)
     centers       n rows
     half_extents  n rows
     rotations     3 n rows: rows 3 k : 3 k + 3 are node k's matrix, box axes as columns
     children      n rows: the two child codes (k >= 0 node, k < 0 triangle -k - 1), 0
     vertices      nv rows
     faces         nf rows: vertex indices
-    hull          the mesh's convex hull for the distance query (:mod:`.packed_hull`), its
-                  flat values in rows of three
+    hull          (added by :func:`with_hull` when a distance query first needs it) the
+                  mesh's convex hull (:mod:`.packed_hull`), its flat values in rows of three
 
 Counts, codes and indices are integers stored as float64, exact below 2**53; kernels convert
 them with ``int()`` (one instruction). The scale is the mesh's bounding-box diagonal (relative
@@ -49,6 +49,7 @@ __all__ = [
     "tree_depth",
     "tree_radius",
     "tree_scale",
+    "with_hull",
 ]
 
 HEADER_ROWS = 3
@@ -70,29 +71,40 @@ def pack_tree(centers, rotations, half_extents, children, root, leafless, depth,
 
     Returns
     -------
-    (3 + 6 n + nv + nf + hull rows, 3) float64
+    (3 + 6 n + nv + nf, 3) float64
     """
     n = len(centers)
     vertices = np.asarray(vertices, dtype=np.float64)
-    hull = hull_block(vertices, faces)
-    hull = np.concatenate([hull, np.zeros(-len(hull) % 3)]).reshape(-1, 3)
     scale = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
     radius = float(np.sqrt((vertices * vertices).sum(axis=1).max()))
     codes = np.zeros((n, 3))
     codes[:, :2] = children
     packed = np.concatenate(
         [
-            [[n, len(vertices), len(faces)], [root, int(leafless), depth], [scale, radius, 1.0]],
+            [[n, len(vertices), len(faces)], [root, int(leafless), depth], [scale, radius, 0.0]],
             np.asarray(centers, dtype=np.float64).reshape(n, 3),
             np.asarray(half_extents, dtype=np.float64).reshape(n, 3),
             np.asarray(rotations, dtype=np.float64).reshape(3 * n, 3),
             codes,
             vertices,
             np.asarray(faces, dtype=np.float64),
-            hull,
         ]
     )
     return np.ascontiguousarray(packed, dtype=np.float64)
+
+
+def with_hull(packed):
+    """The packed tree with the hull block of its mesh appended (flagged in its header), or
+    the array itself if it has one."""
+    if packed[2, 2] != 0.0:
+        return packed
+    n, nv, nf = (int(x) for x in packed[0])
+    v = HEADER_ROWS + 6 * n
+    hull = hull_block(packed[v : v + nv], packed[v + nv : v + nv + nf].astype(np.int64))
+    hull = np.concatenate([hull, np.zeros(-len(hull) % 3)]).reshape(-1, 3)
+    extended = np.concatenate([packed[: v + nv + nf], hull])
+    extended[2, 2] = 1.0
+    return extended
 
 
 def packed_views(packed):

@@ -31,13 +31,14 @@ __all__ = [
 ]
 
 
-def tree_array(tree, name: str) -> np.ndarray:
-    """The packed query array of an OBBTree argument, or ValueError naming ``name``."""
+def tree_array(tree, name: str, hull: bool = False) -> np.ndarray:
+    """The packed query array of an OBBTree argument (with its hull block if ``hull``: the
+    distance queries), or ValueError naming ``name``."""
     from thesis_rbd.collision.mesh.obbtree import OBBTree
 
     if not isinstance(tree, OBBTree):
         raise ValueError(f"{name} must be a thesis_rbd.OBBTree, got {type(tree).__name__}")
-    return tree.query_array()
+    return tree.query_array(hull)
 
 
 def raise_bad_pose(T, name: str):

@@ -252,7 +252,7 @@ def continuous_collide(tree_a, T_a0, T_a1, tree_b, T_b0, T_b1, tolerance=None) -
         tol = float(tolerance)
         if not (math.isfinite(tol) and tol > 0.0):
             raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
-    P_a, S_a0, P_b, S_b0 = pose_stacks(tree_a, T_a0, tree_b, T_b0, ("T_a0", "T_b0"))
+    P_a, S_a0, P_b, S_b0 = pose_stacks(tree_a, T_a0, tree_b, T_b0, ("T_a0", "T_b0"), hull=True)
     _, S_a1, _, S_b1 = pose_stacks(tree_a, T_a1, tree_b, T_b1, ("T_a1", "T_b1"))
     lengths = {len(S) for S in (S_a0, S_a1, S_b0, S_b1)} - {1}
     if len(lengths) > 1:

@@ -391,14 +391,15 @@ def _is_stack(T) -> bool:
     return np.ndim(T) == 3
 
 
-def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b"), checked=True):
+def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b"), checked=True, hull=False):
     """Packed trees and (k, 4, 4) pose stacks for a stack kernel, or ValueError.
 
     A lone (4, 4) pose is a stack of one; two stacks must have the same length. ``names``
-    are the pose arguments' names for the messages; ``checked`` as :func:`.as_pose_stack`.
+    are the pose arguments' names for the messages; ``checked`` as :func:`.as_pose_stack`;
+    ``hull``: the trees' arrays with their hull blocks (the distance kernels).
     """
-    P_a = tree_array(tree_a, "tree_a")
-    P_b = tree_array(tree_b, "tree_b")
+    P_a = tree_array(tree_a, "tree_a", hull)
+    P_b = tree_array(tree_b, "tree_b", hull)
     S_a = as_pose_stack(T_a, names[0], checked)
     S_b = as_pose_stack(T_b, names[1], checked)
     if len(S_a) != len(S_b) and len(S_a) != 1 and len(S_b) != 1:
@@ -411,7 +412,9 @@ def pose_stacks(tree_a, T_a, tree_b, T_b, names=("T_a", "T_b"), checked=True):
 
 def stacked_distances(tree_a, T_a, tree_b, T_b):
     """(distances (k,), points (k, 2, 3), faces (k, 2), bound tests, triangle tests)."""
-    return call_normalised(_distance_stack_kernel, *pose_stacks(tree_a, T_a, tree_b, T_b))
+    return call_normalised(
+        _distance_stack_kernel, *pose_stacks(tree_a, T_a, tree_b, T_b, hull=True)
+    )
 
 
 def distance(tree_a, T_a, tree_b, T_b) -> DistanceResult:
@@ -440,13 +443,13 @@ def distance(tree_a, T_a, tree_b, T_b) -> DistanceResult:
         two stacks differ in length).
     """
     try:
-        raw = _distance_kernel(tree_a._packed, T_a, tree_b._packed, T_b)
+        raw = _distance_kernel(tree_a._hull_packed, T_a, tree_b._hull_packed, T_b)
     except (TypeError, AttributeError):
         if _is_stack(T_a) or _is_stack(T_b):
             distances, points, faces, nb, nt = stacked_distances(tree_a, T_a, tree_b, T_b)
             return DistanceResult(distances, points, faces, (0,) * 10 + (nb, nt))
-        P_a = tree_array(tree_a, "tree_a")
-        P_b = tree_array(tree_b, "tree_b")
+        P_a = tree_array(tree_a, "tree_a", hull=True)
+        P_b = tree_array(tree_b, "tree_b", hull=True)
         raw = call_normalised(_distance_kernel, P_a, as_pose(T_a, "T_a"), P_b, as_pose(T_b, "T_b"))
     if raw[0]:
         if raw[0] == 1:
