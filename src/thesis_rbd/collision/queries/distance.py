@@ -131,33 +131,25 @@ def _grown(stack, size, zeros):
 
 
 @njit(allocates=False)
-def _triangle_in_box_frame(P, L, t, M, tr, Pk, Lk, k):
+def _carried_triangle(P, L, t, M, tr):
     """Corners of triangle t of tree (P, L), mapped by ``x -> M x + tr`` into the mesh frame
-    of tree (Pk, Lk), then into the frame of its box k."""
-    c = Lk[0] + k
-    r = Lk[2] + 3 * k
-    # Box frame = R_k^T (x - c_k): fold it into the mapping.
-    Q = (
-        Pk[r, 0] * M[0] + Pk[r + 1, 0] * M[3] + Pk[r + 2, 0] * M[6],
-        Pk[r, 0] * M[1] + Pk[r + 1, 0] * M[4] + Pk[r + 2, 0] * M[7],
-        Pk[r, 0] * M[2] + Pk[r + 1, 0] * M[5] + Pk[r + 2, 0] * M[8],
-        Pk[r, 1] * M[0] + Pk[r + 1, 1] * M[3] + Pk[r + 2, 1] * M[6],
-        Pk[r, 1] * M[1] + Pk[r + 1, 1] * M[4] + Pk[r + 2, 1] * M[7],
-        Pk[r, 1] * M[2] + Pk[r + 1, 1] * M[5] + Pk[r + 2, 1] * M[8],
-        Pk[r, 2] * M[0] + Pk[r + 1, 2] * M[3] + Pk[r + 2, 2] * M[6],
-        Pk[r, 2] * M[1] + Pk[r + 1, 2] * M[4] + Pk[r + 2, 2] * M[7],
-        Pk[r, 2] * M[2] + Pk[r + 1, 2] * M[5] + Pk[r + 2, 2] * M[8],
-    )
-    w = (tr[0] - Pk[c, 0], tr[1] - Pk[c, 1], tr[2] - Pk[c, 2])
-    qt = (
-        Pk[r, 0] * w[0] + Pk[r + 1, 0] * w[1] + Pk[r + 2, 0] * w[2],
-        Pk[r, 1] * w[0] + Pk[r + 1, 1] * w[1] + Pk[r + 2, 1] * w[2],
-        Pk[r, 2] * w[0] + Pk[r + 1, 2] * w[1] + Pk[r + 2, 2] * w[2],
-    )
+    of the other tree."""
+    return corner_moved(P, L, t, 0, M, tr), corner_moved(P, L, t, 1, M, tr), \
+        corner_moved(P, L, t, 2, M, tr)  # fmt: skip
+
+
+@njit(allocates=False)
+def _in_box(P, L, k, w):
+    """Point w of tree (P, L)'s mesh frame in the frame of its box k: ``R_k^T (w - c_k)``."""
+    c = L[0] + k
+    r = L[2] + 3 * k
+    d0 = w[0] - P[c, 0]
+    d1 = w[1] - P[c, 1]
+    d2 = w[2] - P[c, 2]
     return (
-        corner_moved(P, L, t, 0, Q, qt),
-        corner_moved(P, L, t, 1, Q, qt),
-        corner_moved(P, L, t, 2, Q, qt),
+        P[r, 0] * d0 + P[r + 1, 0] * d1 + P[r + 2, 0] * d2,
+        P[r, 1] * d0 + P[r + 1, 1] * d1 + P[r + 2, 1] * d2,
+        P[r, 2] * d0 + P[r + 1, 2] * d1 + P[r + 2, 2] * d2,
     )
 
 
@@ -217,8 +209,18 @@ def mesh_distance(Pa, Pb, Mab, tab):
     capacity = stack.shape[0]
     size = 0
     zeros = 0
-    # B's box last carried into A's frame (reused while the same B node meets A's children).
+    # B's box last carried into A's frame (reused while the same B node meets A's children),
+    # and A's box last carried into B's (while one A node meets B's children)
     carried = -1
+    carried_a = -1
+    ga = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    ca = (0.0, 0.0, 0.0)
+    split_b = False
+    # the triangle of A (code < 0) whose corners were last carried into B's frame, and of B
+    # into A's (a node facing a triangle is split, so the triangle meets both children)
+    carried_triangle_a = 0
+    carried_triangle_b = 0
+    wa0 = wa1 = wa2 = wb0 = wb1 = wb2 = (0.0, 0.0, 0.0)
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
     # The search runs in the inner loop until it is done or its stacks have no room for a
@@ -258,7 +260,14 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 if x < 0 and y < 0:
                     continue
                 bound_tests += 1
-                if x >= 0 and y >= 0:
+                if x >= 0 and y >= 0 and split_b:
+                    # B's children against one A box: that box carried into B's frame once
+                    if x != carried_a:
+                        ga, ca = carry_box(x, Pa, La, Mba, tba)
+                        carried_a = x
+                    R, T = box_frame(y, Pb, Lb, ga, ca)
+                    bound = box_box_gap(R, T, half_extent(Pb, Lb, y), half_extent(Pa, La, x), best)
+                elif x >= 0 and y >= 0:
                     if y != carried:
                         g, c = carry_box(y, Pb, Lb, Mab, tab)
                         carried = y
@@ -266,10 +275,22 @@ def mesh_distance(Pa, Pb, Mab, tab):
                     hx = half_extent(Pa, La, x)
                     bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
                 elif x < 0:
-                    v0, v1, v2 = _triangle_in_box_frame(Pa, La, -x - 1, Mba, tba, Pb, Lb, y)
+                    # a triangle of A facing B's boxes: its corners carried into B's frame
+                    # once, then into each box's
+                    if x != carried_triangle_a:
+                        wa0, wa1, wa2 = _carried_triangle(Pa, La, -x - 1, Mba, tba)
+                        carried_triangle_a = x
+                    v0 = _in_box(Pb, Lb, y, wa0)
+                    v1 = _in_box(Pb, Lb, y, wa1)
+                    v2 = _in_box(Pb, Lb, y, wa2)
                     bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
                 else:
-                    v0, v1, v2 = _triangle_in_box_frame(Pb, Lb, -y - 1, Mab, tab, Pa, La, x)
+                    if y != carried_triangle_b:
+                        wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y - 1, Mab, tab)
+                        carried_triangle_b = y
+                    v0 = _in_box(Pa, La, x, wb0)
+                    v1 = _in_box(Pa, La, x, wb1)
+                    v2 = _in_box(Pa, La, x, wb2)
                     bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
                 if k == 0:
                     b0 = bound
