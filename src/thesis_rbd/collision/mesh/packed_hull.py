@@ -8,6 +8,8 @@ run of float64 values appended to the packed tree (:mod:`.packed`; its header's 
 is 1 when the block is there), so a query kernel reads it without another argument::
 
     h, m, k                      hull vertices, neighbour entries, vertex-face entries
+    extremes                     6: the hull vertices farthest along -x, +x, -y, +y, -z, +z,
+                                 where a support search starts
     coordinates                  3 h: the hull vertices, mesh frame
     neighbour_start, neighbours  h + 1 and m: the hull's vertex graph (local indices), which
                                  a support search climbs
@@ -26,8 +28,8 @@ from thesis_rbd._numba.jit import njit
 
 __all__ = ["HULL_FIELDS", "hull_block", "hull_fields"]
 
-# Values before the coordinates: h, m, k
-HULL_FIELDS = 3
+# Values before the coordinates: h, m, k and the six extreme vertices
+HULL_FIELDS = 9
 
 
 def hull_block(vertices, faces) -> np.ndarray:
@@ -64,6 +66,8 @@ def hull_block(vertices, faces) -> np.ndarray:
     b = simplices[:, [1, 2, 0]].reshape(-1)
     keys = np.unique(np.concatenate([a * h + b, b * h + a]))
     neighbour_start = np.searchsorted(keys // h, np.arange(h + 1))
+    points = vertices[ids]
+    extremes = np.stack([points.argmin(axis=0), points.argmax(axis=0)], axis=1).reshape(-1)
     # the mesh faces around each hull vertex
     corner_local = local[faces.reshape(-1)]
     on_hull = np.flatnonzero(corner_local >= 0)
@@ -73,6 +77,7 @@ def hull_block(vertices, faces) -> np.ndarray:
     return np.concatenate(
         [
             [h, len(keys), len(around)],
+            extremes,
             vertices[ids].reshape(-1),
             neighbour_start,
             keys % h,

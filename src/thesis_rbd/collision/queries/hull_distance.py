@@ -52,6 +52,17 @@ def _climb(F, h, xyz, start, neighbours, dx, dy, dz, v):
     return v
 
 
+@njit(allocates=False)
+def _extreme(F, base, dx, dy, dz):
+    """The hull's extreme vertex (block at ``F[base]``) along the axis nearest (dx, dy, dz)."""
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    if ax >= ay and ax >= az:
+        return int(F[base + 3 + (1 if dx > 0.0 else 0)])
+    if ay >= az:
+        return int(F[base + 5 + (1 if dy > 0.0 else 0)])
+    return int(F[base + 7 + (1 if dz > 0.0 else 0)])
+
+
 @njit
 def _around(F, face_start, faces, hull_vertices, n):
     """Mesh faces at the hull feature spanned by hull vertices ``hull_vertices[:n]``
@@ -127,12 +138,17 @@ def hull_distance(Pa, La, Pb, Lb, M, t):
     ia = np.empty(4, dtype=np.int64)
     ib = np.empty(4, dtype=np.int64)
     rows = np.empty(4, dtype=np.int64)
-    va = 0
-    vb = 0
+    # from the line between the hulls' first vertices, each climb starting at the hull's
+    # extreme vertex along the axis nearest its direction
     bx, by, bz = Fb[xb], Fb[xb + 1], Fb[xb + 2]
     vx = Fa[xa] - (M[0] * bx + M[1] * by + M[2] * bz + t[0])
     vy = Fa[xa + 1] - (M[3] * bx + M[4] * by + M[5] * bz + t[1])
     vz = Fa[xa + 2] - (M[6] * bx + M[7] * by + M[8] * bz + t[2])
+    va = _extreme(Fa, 3 * row_a, -vx, -vy, -vz)
+    vb = _extreme(
+        Fb, 3 * row_b, M[0] * vx + M[3] * vy + M[6] * vz, M[1] * vx + M[4] * vy + M[7] * vz,
+        M[2] * vx + M[5] * vy + M[8] * vz,
+    )  # fmt: skip
     n = 0
     lower = 0.0
     for _ in range(_GJK_ITERATIONS):
