@@ -18,10 +18,9 @@ stack that is emptied first, so a colliding pose is searched as an overlap query
 it and an intersection ends the search without sweeping every level. The others wait in a
 queue, least bound first, when the hulls measured no triangle pair (they overlap: the meshes
 are interlocked or nearly touching, where a bound found late would prune much that a
-depth-first search had already opened: on the tori demo's linked poses best first tests
-0.4 times the boxes), and on a stack, depth first, when they did (a search that starts from
-a near-optimal bound visits about the boxes best first would, and a stack costs less than a
-queue: on the approach paths the queue's upkeep cost more than the boxes it saved).
+depth-first search had already opened), and on a stack, depth first, when they did (a search
+that starts from a near-optimal bound visits about the boxes best first would, and a stack
+costs less to keep than a queue).
 
 All geometry is evaluated in A's mesh frame (B's boxes and triangles carried over by
 ``T_a^-1 T_b``); the closest points are mapped to the world at the end.
