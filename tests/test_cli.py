@@ -361,3 +361,66 @@ def test_console_script_reports_a_bad_scene_in_one_line(tmp_path, thesis_rbd_com
         "friction, static, force"
     )
     assert files_in(tmp_path) == ["bad.toml"]
+
+
+def test_outputs_are_regular_files_only(tmp_path):
+    """A symbolic link is written through to its file (the link stays); a FIFO, a folder and
+    a link to a FIFO are refused before the run, with one line naming them, and nothing in
+    the folder changes."""
+    target = tmp_path / "target.npz"
+    target.write_bytes(b"old")
+    (tmp_path / "link.npz").symlink_to(target)
+    result = invoke("run", "projectile", "--seconds", 0.05, "--out", tmp_path / "link.npz")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "link.npz").is_symlink()
+    assert len(rbd.Trajectory.load(target).times) > 1
+    assert files_in(tmp_path) == ["link.npz", "target.npz"]
+
+    os.mkfifo(tmp_path / "pipe.npz")
+    (tmp_path / "folder.npz").mkdir()
+    (tmp_path / "to_pipe.npz").symlink_to(tmp_path / "pipe.npz")
+    before = {p.name: p.lstat() for p in tmp_path.iterdir()}
+    for name, kind in (("pipe.npz", "a FIFO"), ("folder.npz", "a folder"),
+                       ("to_pipe.npz", "a FIFO")):  # fmt: skip
+        result = invoke("run", "projectile", "--seconds", 0.05, "--out", tmp_path / name)
+        assert result.exit_code == 1
+        (line,) = result.output.strip().splitlines()
+        assert f"{tmp_path / name}: it is {kind}" in line
+    after = {p.name: p.lstat() for p in tmp_path.iterdir()}
+    assert after == before
+
+
+def test_sigterm_stops_a_run_and_leaves_no_partial_file(tmp_path, thesis_rbd_command):
+    """SIGTERM mid-run ends the run as Ctrl-C would: one line, exit status 143 (128 +
+    SIGTERM, as a shell reports a killed process), and no output or partial file."""
+    import signal
+    import time
+
+    process = subprocess.Popen(
+        [thesis_rbd_command, "run", "rain", "--seconds", "600", "--out", "run.npz",
+         "--html", "play.html"],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    time.sleep(3.0)
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 143
+    assert stderr.strip().splitlines()[-1] == "thesis-rbd: stopped by SIGTERM; no output written"
+    assert files_in(tmp_path) == []
+
+
+def test_sigterm_while_an_output_is_written_removes_the_partial_file(tmp_path):
+    """The signal raised inside an atomic write (as the handler raises it wherever the main
+    thread is) removes the partial file and leaves the destination as it was."""
+    import signal
+
+    from thesis_rbd._atomic import atomic_path
+    from thesis_rbd.cli import Stopped, _signals_stop_the_run
+
+    destination = tmp_path / "run.npz"
+    destination.write_bytes(b"kept")
+    with pytest.raises(Stopped), _signals_stop_the_run(), atomic_path(destination) as partial:
+        partial.write_bytes(b"half")
+        os.kill(os.getpid(), signal.SIGTERM)
+    assert files_in(tmp_path) == ["run.npz"]
+    assert destination.read_bytes() == b"kept"

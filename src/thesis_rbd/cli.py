@@ -523,7 +523,41 @@ def main(argv: list[str] | None = None) -> None:
     """
     gc.freeze()
     atexit.register(gc.freeze)
-    app(argv, prog_name="thesis-rbd")
+    try:
+        with _signals_stop_the_run():
+            app(argv, prog_name="thesis-rbd")
+    except Stopped as stop:
+        name = signal.Signals(stop.signum).name
+        typer.echo(f"thesis-rbd: stopped by {name}; no output written", err=True)
+        sys.exit(128 + stop.signum)
+
+
+class Stopped(BaseException):
+    """SIGTERM or SIGHUP arrived: raised where the main thread is, like KeyboardInterrupt for
+    SIGINT, so the run unwinds and every partial output is removed on the way
+    (:func:`thesis_rbd._atomic.atomic_path`); the process then exits with 128 + the signal's
+    number, as a shell reports a process the signal killed (143 for SIGTERM, 129 for SIGHUP).
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _signals_stop_the_run():
+    """SIGTERM and SIGHUP raise :class:`Stopped` while the command runs."""
+
+    def stop(signum, frame):
+        raise Stopped(signum)
+
+    handled = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    previous = {signum: signal.signal(signum, stop) for signum in handled}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -123,7 +123,12 @@ class CompileHelpers:
                 )
             )
         self.started = len(self._processes)
-        compile_planned(entries)
+        try:
+            compile_planned(entries)
+        except BaseException:
+            # interrupted while entering (Ctrl-C, SIGTERM): the context will not be exited
+            self.stop()
+            raise
 
     def stop(self) -> None:
         """Stop the helpers still at work."""
