@@ -392,16 +392,20 @@ def test_outputs_are_regular_files_only(tmp_path):
 
 def test_sigterm_stops_a_run_and_leaves_no_partial_file(tmp_path, thesis_rbd_command):
     """SIGTERM mid-run ends the run as Ctrl-C would: one line, exit status 143 (128 +
-    SIGTERM, as a shell reports a killed process), and no output or partial file."""
+    SIGTERM, as a shell reports a killed process), and no output or partial file. The signal
+    is sent once the run has started (``--verbose`` prints the stages first)."""
     import signal
     import time
 
     process = subprocess.Popen(
         [thesis_rbd_command, "run", "rain", "--seconds", "600", "--out", "run.npz",
-         "--html", "play.html"],
+         "--html", "play.html", "--verbose"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    time.sleep(3.0)
+    for line in process.stdout:
+        if line.strip().startswith("stages:"):
+            break
+    time.sleep(0.5)
     process.send_signal(signal.SIGTERM)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 143
