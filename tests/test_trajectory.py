@@ -233,3 +233,59 @@ def test_constructor_checks_contacts():
     for message, contacts in faults.items():
         with pytest.raises(ValueError, match=message):
             Trajectory(*frames, contacts=contacts)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("metadata", np.array("[1, 2]"), "metadata must be a JSON object, got list"),
+        ("metadata", np.array("{not json"), "metadata is not valid JSON"),
+        ("metadata", np.zeros(3), "field 'metadata' must be 0-dimensional text"),
+        ("names", np.array("ledge"), "field 'names' must be 1-dimensional text"),
+        ("names", np.array(["ledge"]), "field 'vertex_offsets' must be 2 integers rising"),
+        ("vertex_offsets", np.array([0.0, 8.0, 16.0]), "field 'vertex_offsets' must be 1-dim"),
+        ("vertex_offsets", np.array([0, 9, 16]), None),
+        ("face_offsets", np.array([0, 12, 99]), "field 'face_offsets' must be 3 integers"),
+        ("mesh_faces", np.zeros((24, 3)), "field 'mesh_faces' must be 2-dimensional integers"),
+        ("positions", np.zeros((11, 2)), "field 'positions' must be 3-dimensional floats"),
+        ("static", np.zeros(2), "field 'static' must be 1-dimensional booleans"),
+        ("times", np.array(["a"]), "field 'times' must be 1-dimensional floats"),
+    ],
+)
+def test_a_malformed_file_is_refused_naming_the_file_and_the_field(tmp_path, field, value, message):
+    """Files with the right format tag whose fields have the wrong type or shape raise one
+    ValueError naming the file and the field (they raised TypeErrors from deep inside)."""
+    path = tmp_path / "run.npz"
+    rbd.simulate(two_body_world(), 0.2, record_every=2).save(path)
+    with np.load(path) as data:
+        arrays = {key: data[key] for key in data.files}
+    arrays[field] = value
+    np.savez(path, **arrays)
+    with pytest.raises(ValueError) as raised:
+        Trajectory.load(path)
+    assert str(raised.value).startswith(f"{path}: ")
+    if message is not None:
+        assert message in str(raised.value)
+
+
+def test_metadata_with_numpy_numbers_saves_as_plain_json(tmp_path):
+    trajectory = rbd.simulate(two_body_world(), 0.05)
+    trajectory.metadata.update(seed=np.int64(7), scale=np.float32(0.5), size=np.arange(3))
+    trajectory.save(tmp_path / "run.npz")
+    loaded = Trajectory.load(tmp_path / "run.npz").metadata
+    assert (loaded["seed"], loaded["scale"], loaded["size"]) == (7, 0.5, [0, 1, 2])
+    trajectory.metadata["bad"] = object()
+    with pytest.raises(ValueError, match="metadata cannot be saved as JSON: object"):
+        trajectory.save(tmp_path / "other.npz")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]
+
+
+def test_a_name_with_a_nul_character_is_refused():
+    """NumPy's fixed-width strings drop trailing NULs, so such a name would not survive a
+    save and load."""
+    trajectory = rbd.simulate(two_body_world(), 0.05)
+    with pytest.raises(ValueError, match="holds a NUL character"):
+        Trajectory(
+            trajectory.times, trajectory.positions, trajectory.orientations,
+            ["ledge", "crate\0"], trajectory.meshes, trajectory.centers_of_mass,
+        )  # fmt: skip

@@ -108,6 +108,10 @@ class Trajectory:
         self.positions = np.ascontiguousarray(positions, dtype=np.float64)
         self.orientations = np.ascontiguousarray(orientations, dtype=np.float64)
         self.names = [str(name) for name in names]
+        for name in self.names:
+            if "\0" in name:
+                # NumPy's fixed-width strings drop trailing NULs: a saved name would change
+                raise ValueError(f"trajectory body name {name!r} holds a NUL character")
         self.meshes = list(meshes)
         self.centers_of_mass = np.ascontiguousarray(centers_of_mass, dtype=np.float64)
         n = len(self.names)
@@ -265,7 +269,7 @@ class Trajectory:
             else np.zeros((0, 3), dtype=np.int64),
             "vertex_offsets": np.concatenate([[0], np.cumsum(vertex_counts)]).astype(np.int64),
             "face_offsets": np.concatenate([[0], np.cumsum(face_counts)]).astype(np.int64),
-            "metadata": np.array(json.dumps(self.metadata)),
+            "metadata": np.array(_metadata_json(self.metadata)),
         }
         if self.has_contacts:
             arrays.update(
@@ -300,18 +304,50 @@ class Trajectory:
                 f"{path} is not a thesis_rbd trajectory "
                 + (f"(missing {', '.join(missing)})" if missing else f"({arrays['format']})")
             )
-        vertex_offsets, face_offsets = arrays["vertex_offsets"], arrays["face_offsets"]
+        try:
+            return cls._from_arrays(arrays)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    @classmethod
+    def _from_arrays(cls, arrays: dict) -> Trajectory:
+        """The trajectory of a file's arrays, each field's type and shape checked first
+        (ValueError naming the field)."""
+        n = _field(arrays, "names", "U", 1).shape[0]
+        vertices = _field(arrays, "mesh_vertices", "f", 2, 3)
+        faces = _field(arrays, "mesh_faces", "iu", 2, 3)
+        vertex_offsets = _offsets(arrays, "vertex_offsets", n + 1, len(vertices))
+        face_offsets = _offsets(arrays, "face_offsets", n + 1, len(faces))
+        for key, kinds, dims in (("times", "f", 1), ("positions", "f", 3),
+                                 ("orientations", "f", 3), ("centers_of_mass", "f", 2),
+                                 ("static", "b", 1)):  # fmt: skip
+            _field(arrays, key, kinds, dims)
+        contact_fields = (
+            ("contact_points", "f", 2),
+            ("contact_normals", "f", 2),
+            ("contact_bodies", "iu", 2),
+            ("contact_offsets", "iu", 1),
+        )
+        for key, kinds, dims in contact_fields:
+            if key in arrays:
+                _field(arrays, key, kinds, dims)
+        try:
+            metadata = json.loads(str(_field(arrays, "metadata", "U", 0)))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"metadata is not valid JSON ({exc})") from None
+        if not isinstance(metadata, dict):
+            raise ValueError(f"metadata must be a JSON object, got {type(metadata).__name__}")
         meshes = [
             TriangleMesh(
-                arrays["mesh_vertices"][vertex_offsets[i] : vertex_offsets[i + 1]],
-                arrays["mesh_faces"][face_offsets[i] : face_offsets[i + 1]],
+                vertices[vertex_offsets[i] : vertex_offsets[i + 1]],
+                faces[face_offsets[i] : face_offsets[i + 1]],
             )
-            for i in range(len(vertex_offsets) - 1)
+            for i in range(n)
         ]
         present = [key for key in _CONTACT_ARRAYS if key in arrays]
         if present and len(present) != len(_CONTACT_ARRAYS):
             missing = sorted(set(_CONTACT_ARRAYS) - set(present))
-            raise ValueError(f"{path} has partial contact data (missing {', '.join(missing)})")
+            raise ValueError(f"partial contact data (missing {', '.join(missing)})")
         contacts = (
             {key.removeprefix("contact_"): arrays[key] for key in _CONTACT_ARRAYS}
             if present
@@ -325,9 +361,53 @@ class Trajectory:
             meshes,
             arrays["centers_of_mass"],
             arrays["static"],
-            json.loads(str(arrays["metadata"])),
+            metadata,
             contacts,
         )
+
+
+def _field(arrays: dict, key: str, kinds: str, dims: int, columns: int | None = None):
+    """``arrays[key]`` after checking its dtype kind (one of ``kinds``: NumPy's kind letters),
+    its number of dimensions and, if given, its last dimension."""
+    array = arrays[key]
+    if array.dtype.kind not in kinds or array.ndim != dims:
+        wanted = {"U": "text", "f": "floats", "iu": "integers", "b": "booleans"}[kinds]
+        raise ValueError(
+            f"field {key!r} must be {dims}-dimensional {wanted}, got a {array.ndim}-dimensional "
+            f"{array.dtype} array"
+        )
+    if columns is not None and array.shape[-1] != columns:
+        raise ValueError(f"field {key!r} must have {columns} columns, got shape {array.shape}")
+    return array
+
+
+def _offsets(arrays: dict, key: str, length: int, end: int):
+    """An offsets field: ``length`` integers rising from 0 to ``end``."""
+    offsets = _field(arrays, key, "iu", 1)
+    if (
+        len(offsets) != length
+        or offsets[0] != 0
+        or offsets[-1] != end
+        or np.any(np.diff(offsets) < 0)
+    ):
+        raise ValueError(f"field {key!r} must be {length} integers rising from 0 to {end}")
+    return offsets
+
+
+def _metadata_json(metadata: dict) -> str:
+    """``metadata`` as JSON; NumPy scalars and arrays become numbers and lists."""
+
+    def plain(value):
+        if isinstance(value, np.generic):
+            return value.item()
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
+
+    try:
+        return json.dumps(metadata, default=plain)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"trajectory metadata cannot be saved as JSON: {exc}") from None
 
 
 def simulate(
