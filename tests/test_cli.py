@@ -21,6 +21,13 @@ def invoke(*args):
     return runner.invoke(app, [str(a) for a in args])
 
 
+def message_lines(output: str) -> list[str]:
+    """The output's lines but the progress line of a first run's compiling."""
+    return [
+        line for line in output.strip().splitlines() if not line.startswith("thesis-rbd: compiling")
+    ]
+
+
 def files_in(folder):
     return sorted(p.name for p in Path(folder).iterdir())
 
@@ -102,6 +109,24 @@ BAD_SCENES = {
         '[[body]]\nshape = { type = "box" }\nvelocity = [1, 0, 0]\n',
         "unknown key 'velocity'",
     ),
+    # sizes that would exhaust memory before any message (24 GB, then the kernel's kill)
+    "huge icosphere": (
+        '[[body]]\nshape = { type = "icosphere", subdivisions = 30 }\n',
+        "an icosphere of subdivisions = 30 would have 2.31e+19 faces",
+    ),
+    "huge cylinder": (
+        '[[body]]\nshape = { type = "cylinder", sections = 10000000000 }\n',
+        "a cylinder of sections = 10000000000 would have 4e+10 faces",
+    ),
+    # mass properties that underflow (a ZeroDivisionError, then a singular matrix)
+    "tiny box": (
+        '[[body]]\nshape = { type = "box", extents = [1e-100, 1e-100, 1e-100] }\n',
+        "density gives this body (1.73e-100 m across) mass properties that over- or underflow",
+    ),
+    "tiny mass": (
+        '[[body]]\nshape = { type = "box" }\nmass = 1e-320\n',
+        "mass gives this body (1.73 m across) mass properties that over- or underflow",
+    ),
 }
 
 
@@ -113,8 +138,8 @@ def test_bad_scene_exits_nonzero_with_one_message_and_no_output(tmp_path, fault)
     result = invoke("run", scene, "--out", tmp_path / "run.npz", "--html", tmp_path / "play.html")
     assert result.exit_code == 1
     assert expected in result.output
-    assert result.output.startswith(f"thesis-rbd: error: {scene}:")
-    assert len(result.output.strip().splitlines()) == 1
+    (line,) = message_lines(result.output)
+    assert line.startswith(f"thesis-rbd: error: {scene}:")
     assert "Traceback" not in result.output
     assert files_in(tmp_path) == ["bad.toml"]
 
@@ -130,6 +155,11 @@ def test_bad_scene_exits_nonzero_with_one_message_and_no_output(tmp_path, fault)
         (["--fps", "0", "--gif", "{tmp}/a.gif"], "--fps must be a positive number"),
         (["--html", "{tmp}/no/such/folder/play.html"], "folder"),
         (["--html", "{tmp}/same", "--out", "{tmp}/same"], "must name different files"),
+        # runs whose frames or steps no machine holds, refused before the world is built
+        (["--seconds", "1e6"], "takes 12.5 GiB, over the 4 GiB limit: record fewer frames"),
+        (["--seconds", "1e300"], "seconds = 1e+300 at dt = 0.00416667 is 2.4e+302 steps"),
+        (["--dt", "1e-300"], "is 1.2e+301 steps; a run takes at most 1e+10"),
+        (["--memory-limit", "0"], "--memory-limit must be a positive number"),
     ],
 )
 def test_bad_options_exit_nonzero_without_output(tmp_path, arguments, expected):
@@ -137,6 +167,7 @@ def test_bad_options_exit_nonzero_without_output(tmp_path, arguments, expected):
     result = invoke("run", *arguments)
     assert result.exit_code == 1, result.output
     assert expected in result.output
+    assert len(message_lines(result.output)) == 1
     assert "Traceback" not in result.output
     assert files_in(tmp_path) == []
 

@@ -245,3 +245,14 @@ def test_a_scene_pays_only_for_the_stages_it_uses():
         assert calls[skipped] == 0, skipped
         assert world.profile[skipped]["seconds"] == 0.0
     assert 1 < calls["broad_phase"] <= 481 // 40
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e20, 1e200, 1e300])
+def test_an_orientation_of_any_finite_size_is_normalised(scale):
+    """Components near 1e200 once overflowed the norm to inf and made the quaternion zero
+    (a ZeroDivisionError at step 0). (Shorter than 1e-12 is refused as zero length.)"""
+    world = rbd.World()
+    body = world.add_body(rbd.shapes.box(), orientation=[0.0, 0.0, scale, scale])
+    np.testing.assert_allclose(world.orientations[body], [0, 0, 2**-0.5, 2**-0.5], atol=1e-15)
+    world.step()
+    assert np.all(np.isfinite(world.orientations))

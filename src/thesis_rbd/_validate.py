@@ -68,10 +68,17 @@ def as_positive_scalar(value, name: str) -> float:
 def as_unit_quaternion(value, name: str = "orientation") -> np.ndarray:
     """Return a normalised (x, y, z, w) quaternion; reject zero length and non-finite input."""
     q = as_finite_array(value, name, shape=(4,))
-    norm = float(np.linalg.norm(q))
-    if norm < 1e-12:
+    # scaled by its largest component first: the sum of squares of components near 1e200
+    # overflows to inf (and the quaternion became zero), and of components near 1e-200
+    # underflows to zero
+    largest = float(np.abs(q).max())
+    if largest == 0.0:
         raise ValueError(f"{name} quaternion has zero length")
-    return q / norm
+    scaled = q / largest
+    norm = float(np.linalg.norm(scaled))
+    if largest * norm < 1e-12:
+        raise ValueError(f"{name} quaternion has zero length")
+    return scaled / norm
 
 
 def as_rigid_transform(value, name: str, tolerance: float = RIGID_TOLERANCE) -> np.ndarray:

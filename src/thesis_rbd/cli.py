@@ -44,7 +44,8 @@ from thesis_rbd._numba.stage_ledger import StageLedger
 from thesis_rbd._run_status import RunStatus
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.scene import Scene, load_scene
-from thesis_rbd.trajectory import Trajectory, simulate
+from thesis_rbd.trajectory import MEMORY_LIMIT, Trajectory, planned_steps, simulate
+from thesis_rbd.world.world import DEFAULT_DT
 
 __all__ = ["app", "resolve_scene"]
 
@@ -96,6 +97,8 @@ def _reported_errors():
         yield
     except (InputError, ValueError, OSError) as exc:
         raise _fail(str(exc)) from None
+    except MemoryError as exc:
+        raise _fail(f"not enough memory ({exc or 'allocation failed'})") from None
 
 
 def _check_outputs(out: Path | None, html: Path | None, gif: Path | None) -> list[Path]:
@@ -237,6 +240,13 @@ def run(
     record_every: Annotated[
         int, typer.Option("--record-every", help="Record a frame every K steps.", min=1)
     ] = 1,
+    memory_limit: Annotated[
+        float,
+        typer.Option(
+            "--memory-limit",
+            help="GiB the recorded frames may take; a run that needs more is refused first.",
+        ),
+    ] = MEMORY_LIMIT / 2**30,
     contacts: Annotated[
         bool | None,
         typer.Option(
@@ -279,6 +289,14 @@ def run(
         }
         if overrides:
             loaded = loaded.with_world(**overrides)
+        if not (math.isfinite(memory_limit) and memory_limit > 0):
+            raise InputError(f"--memory-limit must be a positive number, got {memory_limit}")
+        # the run's steps and frames, checked before the world is built
+        planned_steps(
+            loaded.seconds if seconds is None else seconds,
+            loaded.world.get("dt", DEFAULT_DT), record_every, len(loaded.bodies),
+            memory_limit * 2**30,
+        )  # fmt: skip
         _check_outputs(out, html, gif)
         status = RunStatus(loaded.name, enabled=not quiet)
         try:
@@ -308,6 +326,7 @@ def run(
                     record_every=record_every,
                     progress=progress,
                     record_contacts=loaded.record_contacts if contacts is None else contacts,
+                    memory_limit=memory_limit * 2**30,
                 )
                 wall = perf_counter() - start
         finally:
@@ -526,10 +545,25 @@ def main(argv: list[str] | None = None) -> None:
     try:
         with _signals_stop_the_run():
             app(argv, prog_name="thesis-rbd")
-    except Stopped as stop:
+    except (Stopped, SystemError) as exc:
+        stop = _stopped_in(exc)
+        if stop is None:
+            raise
         name = signal.Signals(stop.signum).name
         typer.echo(f"thesis-rbd: stopped by {name}; no output written", err=True)
         sys.exit(128 + stop.signum)
+
+
+def _stopped_in(exc: BaseException) -> Stopped | None:
+    """The :class:`Stopped` that ``exc`` is, or that caused it: raised while a numba kernel
+    was calling back into Python, it reaches the command wrapped in SystemErrors."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, Stopped):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 class Stopped(BaseException):

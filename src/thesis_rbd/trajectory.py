@@ -410,12 +410,48 @@ def _metadata_json(metadata: dict) -> str:
         raise ValueError(f"trajectory metadata cannot be saved as JSON: {exc}") from None
 
 
+# The most steps one run may take, and the default limit on the memory its recorded frames
+# may take (each frame holds 7 float64 per body; contacts come on top).
+MAX_STEPS = 10**10
+MEMORY_LIMIT = 2**32
+
+
+def planned_steps(
+    seconds: float, dt: float, record_every: int, bodies: int, memory_limit: float = MEMORY_LIMIT
+) -> int:
+    """The steps a run of ``seconds`` takes at ``dt``, after checking that it is a number of
+    steps a run can take and that its recorded frames fit in ``memory_limit`` bytes.
+
+    Raises
+    ------
+    ValueError
+        Naming seconds and dt, or the frames' size with the hint of ``record_every``.
+    """
+    ratio = seconds / dt
+    if not ratio < MAX_STEPS:
+        raise ValueError(
+            f"seconds = {seconds:g} at dt = {dt:g} is {ratio:.3g} steps; a run takes at most "
+            f"{MAX_STEPS:.0e}"
+        )
+    steps = max(1, math.ceil(ratio - 1e-9))
+    frames = steps // record_every + 2
+    size = frames * bodies * 7 * 8
+    if size > memory_limit:
+        raise ValueError(
+            f"recording {frames} frames of {bodies} bodies takes {size / 2**30:.3g} GiB, over "
+            f"the {memory_limit / 2**30:.3g} GiB limit: record fewer frames (record_every, "
+            "--record-every) or raise the limit (memory_limit, --memory-limit)"
+        )
+    return steps
+
+
 def simulate(
     world: World,
     seconds: float,
     record_every: int = 1,
     progress: Callable[[int, int], None] | None = None,
     record_contacts: bool = False,
+    memory_limit: float = MEMORY_LIMIT,
 ) -> Trajectory:
     """Step ``world`` for ``seconds`` of simulated time and record its poses.
 
@@ -436,6 +472,9 @@ def simulate(
         contacts of the steps in between are not kept). Frame 0 holds the world's contacts
         before the run (none for a freshly built world).
 
+    memory_limit : float
+        Bytes the recorded frames may take (``MEMORY_LIMIT``, 4 GiB, by default): a run
+        whose frames would take more is refused before it starts.
     Returns
     -------
     Trajectory
@@ -454,8 +493,10 @@ def simulate(
     if isinstance(record_every, bool) or int(record_every) != record_every or record_every < 1:
         raise ValueError(f"record_every must be an integer >= 1, got {record_every!r}")
     record_every = int(record_every)
+    if not (isinstance(memory_limit, (int, float)) and memory_limit > 0):
+        raise ValueError(f"memory_limit must be a positive number of bytes, got {memory_limit!r}")
 
-    total_steps = max(1, math.ceil(seconds / world.dt - 1e-9))
+    total_steps = planned_steps(seconds, world.dt, record_every, len(world), memory_limit)
     frame_steps = np.arange(0, total_steps + 1, record_every)
     if frame_steps[-1] != total_steps:
         frame_steps = np.append(frame_steps, total_steps)

@@ -20,18 +20,20 @@ from thesis_rbd.spatial.quaternion import quat_to_matrix
 __all__ = ["body_fields"]
 
 
-def _check_mass_properties(m, inv_m, inertia, inv_inertia, name: str) -> None:
+def _check_mass_properties(m, inv_m, inertia, inv_inertia, name: str, size: float) -> None:
     """Refuse a body whose mass or inertia, or their inverses, are not finite and positive
-    (a mass of 1e-320 has an infinite inverse): no step could move it."""
+    (a mass of 1e-320 has an infinite inverse, a 1e-100 m box an inertia of zero): no step
+    could move it. ``size`` is the mesh's, for the message."""
     finite = (
         0.0 < m < math.inf and 0.0 < inv_m < math.inf
         and bool(np.all(np.isfinite(inertia))) and bool(np.all(np.isfinite(inv_inertia)))
     )  # fmt: skip
     if not finite:
         raise ValueError(
-            f"{name} gives this body mass properties that over- or underflow (mass {m!r}, "
-            f"inverse mass {inv_m!r}, inertia diagonal {np.diag(inertia).tolist()}): "
-            "choose a value that makes them finite and positive"
+            f"{name} gives this body ({size:.3g} m across) mass properties that over- or "
+            f"underflow (mass {m!r}, inverse mass {inv_m!r}, inertia diagonal "
+            f"{np.diag(inertia).tolist()}): choose a size and {name} that make them finite "
+            "and positive"
         )
 
 
@@ -86,11 +88,17 @@ def body_fields(
             props = mass_properties(mesh, density=1.0 if density is None else density)
         center, m, inertia = props.center_of_mass, props.mass, props.inertia
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            inv_m, inv_inertia = 1.0 / m, np.linalg.inv(inertia)
+            inv_m = 1.0 / m
+            try:
+                inv_inertia = np.linalg.inv(inertia)
+            except np.linalg.LinAlgError:  # an inertia that underflowed to zero
+                inv_inertia = np.full((3, 3), math.inf)
             R = quat_to_matrix(q)
             P = m * v
             L = R @ inertia @ R.T @ w
-        _check_mass_properties(m, inv_m, inertia, inv_inertia, "mass" if mass else "density")
+        _check_mass_properties(
+            m, inv_m, inertia, inv_inertia, "mass" if mass else "density", mesh.scale
+        )
         for name, value in (("linear_velocity", P), ("angular_velocity", L)):
             if not np.all(np.isfinite(value)):
                 raise ValueError(

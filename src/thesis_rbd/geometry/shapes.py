@@ -11,13 +11,26 @@ import numpy as np
 from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.geometry.mesh import TriangleMesh
 
-__all__ = ["box", "cylinder", "icosphere", "torus"]
+__all__ = ["MAX_FACES", "box", "cylinder", "icosphere", "torus"]
+
+# The most faces a generated shape may have: a few hundred MB with its tree. Asked for more,
+# a shape is refused before anything is allocated (an icosphere of 30 subdivisions would
+# have 2.3e19 faces); a finer mesh can still be loaded from a file.
+MAX_FACES = 2_000_000
 
 
 def _at_least(value, name: str, minimum: int) -> int:
-    if int(value) != value or value < minimum:
+    if isinstance(value, bool) or int(value) != value or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
+
+
+def _faces_at_most(faces: int, what: str) -> None:
+    if faces > MAX_FACES:
+        raise ValueError(
+            f"{what} would have {faces:.3g} faces; generated shapes have at most {MAX_FACES:,} "
+            "(load a finer mesh from a file)"
+        )
 
 
 def box(extents=(1.0, 1.0, 1.0)) -> TriangleMesh:
@@ -36,6 +49,7 @@ def icosphere(radius: float = 1.0, subdivisions: int = 2) -> TriangleMesh:
 
     radius = as_positive_scalar(radius, "radius")
     subdivisions = _at_least(subdivisions, "subdivisions", 0)
+    _faces_at_most(20 * 4**subdivisions, f"an icosphere of subdivisions = {subdivisions}")
     return TriangleMesh.from_trimesh(
         trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
     )
@@ -48,6 +62,7 @@ def cylinder(radius: float = 0.5, height: float = 1.0, sections: int = 32) -> Tr
     radius = as_positive_scalar(radius, "radius")
     height = as_positive_scalar(height, "height")
     sections = _at_least(sections, "sections", 3)
+    _faces_at_most(4 * sections, f"a cylinder of sections = {sections}")
     return TriangleMesh.from_trimesh(
         trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
     )
@@ -73,6 +88,10 @@ def torus(
         )
     major_sections = _at_least(major_sections, "major_sections", 3)
     minor_sections = _at_least(minor_sections, "minor_sections", 3)
+    _faces_at_most(
+        2 * major_sections * minor_sections,
+        f"a torus of {major_sections} x {minor_sections} sections",
+    )
     return TriangleMesh.from_trimesh(
         trimesh.creation.torus(
             major_radius=major_radius,

@@ -80,6 +80,9 @@ from thesis_rbd.world.time_of_impact import (
 
 __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
+# The time step a world takes unless told otherwise (s): Bullet's and MuJoCo's users' usual 240 Hz.
+DEFAULT_DT = 1.0 / 240.0
+
 
 # The largest force component ``apply_force`` takes (N): the kernels square forces and the
 # momenta they give, and 1e150 squared stays finite with room for sums.
@@ -169,7 +172,7 @@ class World(WorldReadout):
 
     def __init__(
         self,
-        dt: float = 1.0 / 240.0,
+        dt: float = DEFAULT_DT,
         gravity=(0.0, 0.0, 0.0),
         integrator: str = "verlet",
         linear_drag: float = 0.0,
