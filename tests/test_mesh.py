@@ -160,3 +160,10 @@ def test_from_trimesh_keeps_arrays():
     mesh = rbd.TriangleMesh.from_trimesh(tm)
     np.testing.assert_array_equal(mesh.faces, tm.faces)
     np.testing.assert_array_equal(mesh.to_trimesh().vertices, tm.vertices)
+
+
+@pytest.mark.parametrize("faces", [[["0", "1", "2"]], [[None, 1, 2]], [[0, 1, 2.5]]])
+def test_faces_that_are_not_integers_are_refused_by_name(faces):
+    """Text and objects raised a TypeError from inside NumPy."""
+    with pytest.raises(ValueError, match="faces must hold integer vertex indices"):
+        rbd.TriangleMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces)

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference import examples, random_pose
 
+import thesis_rbd as rbd
 from thesis_rbd._validate import as_rigid_transform
 from thesis_rbd.collision.queries._query_args import pose_ok
 
@@ -60,3 +62,12 @@ def test_pose_ok_refuses_wrong_shapes():
     assert not pose_ok(np.eye(3))
     assert not pose_ok(np.eye(5))
     assert pose_ok(np.eye(4))
+
+
+def test_tolerances_that_are_not_numbers_are_named():
+    tree = rbd.OBBTree(rbd.shapes.box())
+    identity = np.eye(4)
+    with pytest.raises(ValueError, match="merge_tolerance must be a number, got 'x'"):
+        rbd.collide(tree, identity, tree, identity, mode="contacts", merge_tolerance="x")
+    with pytest.raises(ValueError, match="tolerance must be a number, got 'x'"):
+        rbd.continuous_collide(tree, identity, identity, tree, identity, identity, tolerance="x")

@@ -429,3 +429,11 @@ def test_tori_demo_detects_without_responding():
     assert np.all(counts[x < -2.7] == 0)  # apart at the start
     assert np.all(counts[(x > -1.2) & (x < -0.8)] == 0)  # chain-linked but apart
     assert np.all(counts[(x > -0.4) & (x < 0.01)] > 0)  # cutting through A
+
+
+def test_a_scene_file_with_a_byte_order_mark_loads(tmp_path):
+    """Some Windows editors start UTF-8 files with a byte-order mark; it once failed at line
+    1, column 1."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + b'[[body]]\nshape = { type = "box" }\n')
+    assert len(rbd.load_scene(path).bodies) == 1

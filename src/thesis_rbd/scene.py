@@ -226,7 +226,8 @@ def load_scene(path: str | Path) -> Scene:
     if not path.is_file():
         raise SceneError(f"scene file not found: {path}")
     try:
-        text = path.read_text(encoding="utf-8")
+        # utf-8-sig: a byte-order mark, as some Windows editors write, is not TOML text
+        text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"cannot read scene file {path}: {exc}") from exc
     return parse_scene(text, name=path.stem, source=str(path), folder=path.parent)

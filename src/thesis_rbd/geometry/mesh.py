@@ -50,7 +50,12 @@ class TriangleMesh:
         if faces_in.ndim != 2 or faces_in.shape[1] != 3:
             raise ValueError(f"faces must have shape (m, 3), got {faces_in.shape}")
         if faces_in.size and not np.issubdtype(faces_in.dtype, np.integer):
-            if not np.all(np.isfinite(faces_in)) or np.any(faces_in != np.round(faces_in)):
+            # (text, objects: isfinite would raise TypeError on them)
+            if (
+                not np.issubdtype(faces_in.dtype, np.floating)
+                or not np.all(np.isfinite(faces_in))
+                or np.any(faces_in != np.round(faces_in))
+            ):
                 raise ValueError(
                     f"faces must hold integer vertex indices, got dtype {faces_in.dtype}"
                 )

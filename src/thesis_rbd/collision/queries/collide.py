@@ -537,7 +537,10 @@ def collide(tree_a, T_a, tree_b, T_b, mode: str = "first", merge_tolerance=None)
     if merge_tolerance is None:
         merge_tolerance = MERGE_FRACTION * max(tree_a.scale, tree_b.scale)
     else:
-        merge_tolerance = float(merge_tolerance)
+        try:
+            merge_tolerance = float(merge_tolerance)
+        except (TypeError, ValueError):
+            raise ValueError(f"merge_tolerance must be a number, got {merge_tolerance!r}") from None
         if not np.isfinite(merge_tolerance) or merge_tolerance < 0:
             raise ValueError(f"merge_tolerance must be finite and >= 0, got {merge_tolerance}")
     Rab, tab = _relative_pose(T_a, args[3])

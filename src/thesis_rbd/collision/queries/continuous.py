@@ -249,7 +249,10 @@ def continuous_collide(tree_a, T_a0, T_a1, tree_b, T_b0, T_b1, tolerance=None) -
     if tolerance is None:
         tol = -1.0
     else:
-        tol = float(tolerance)
+        try:
+            tol = float(tolerance)
+        except (TypeError, ValueError):
+            raise ValueError(f"tolerance must be a number, got {tolerance!r}") from None
         if not (math.isfinite(tol) and tol > 0.0):
             raise ValueError(f"tolerance must be positive and finite, got {tolerance!r}")
     P_a, S_a0, P_b, S_b0 = pose_stacks(tree_a, T_a0, tree_b, T_b0, ("T_a0", "T_b0"), hull=True)
