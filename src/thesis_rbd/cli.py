@@ -30,6 +30,7 @@ import gc
 import math
 import signal
 import sys
+import warnings
 from pathlib import Path
 from time import perf_counter
 from typing import Annotated
@@ -99,6 +100,8 @@ def _reported_errors():
         raise _fail(str(exc)) from None
     except MemoryError as exc:
         raise _fail(f"not enough memory ({exc or 'allocation failed'})") from None
+    except ArithmeticError as exc:  # a range the checks missed: still one line
+        raise _fail(f"a number is out of range ({exc})") from None
 
 
 def _check_outputs(out: Path | None, html: Path | None, gif: Path | None) -> list[Path]:
@@ -542,6 +545,9 @@ def main(argv: list[str] | None = None) -> None:
     """
     gc.freeze()
     atexit.register(gc.freeze)
+    # NumPy's overflow and invalid-value warnings on extreme input are not messages for a
+    # user: every value they concern is checked and refused in one line by name
+    warnings.simplefilter("ignore", RuntimeWarning)
     try:
         with _signals_stop_the_run():
             app(argv, prog_name="thesis-rbd")

@@ -49,7 +49,10 @@ def icosphere(radius: float = 1.0, subdivisions: int = 2) -> TriangleMesh:
 
     radius = as_positive_scalar(radius, "radius")
     subdivisions = _at_least(subdivisions, "subdivisions", 0)
-    _faces_at_most(20 * 4**subdivisions, f"an icosphere of subdivisions = {subdivisions}")
+    # (in floating point, and capped: the integer 4 ** 1e10 would itself exhaust memory)
+    _faces_at_most(
+        20.0 * 4.0 ** min(subdivisions, 500), f"an icosphere of subdivisions = {subdivisions}"
+    )
     return TriangleMesh.from_trimesh(
         trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
     )

@@ -82,6 +82,9 @@ __all__ = ["STAGE_NAMES", "NonFiniteStateError", "World"]
 
 # The time step a world takes unless told otherwise (s): Bullet's and MuJoCo's users' usual 240 Hz.
 DEFAULT_DT = 1.0 / 240.0
+# The longest time step a world takes (s): the step squares it (a fall under gravity over one
+# step), and no body's motion is resolved by steps of days.
+MAX_DT = 1e4
 
 
 # The largest force component ``apply_force`` takes (N): the kernels square forces and the
@@ -140,7 +143,7 @@ class World(WorldReadout):
     Parameters
     ----------
     dt : float
-        Time step (s), > 0.
+        Time step (s), > 0 and at most MAX_DT (1e4 s).
     gravity : (3,) array_like
         Gravitational acceleration (m/s^2); (0, 0, 0) by default (no effect is on by default).
     integrator : {"verlet", "euler", "symplectic_euler", "midpoint", "rk4"}
@@ -187,6 +190,8 @@ class World(WorldReadout):
         narrow_phase: str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
+        if self.dt > MAX_DT:
+            raise ValueError(f"dt must be at most {MAX_DT:g} s, got {self.dt!r}")
         self.gravity = as_finite_array(gravity, "gravity", shape=(3,))
         if integrator not in INTEGRATORS:
             raise ValueError(
