@@ -87,3 +87,81 @@ def test_extreme_scene_values_end_in_a_run_or_one_line(tmp_path_factory, text):
     (line,) = message_lines(result.stderr)
     assert line.startswith("thesis-rbd: error: s.toml: "), (text, line)
     assert sorted(p.name for p in folder.iterdir()) == ["s.toml"]
+
+
+BOX = '[[body]]\nshape = { type = "box" }\n'
+# The cases issue 39 found, each once a traceback, a kill by the kernel or silent garbage.
+CASES = {
+    "icosphere of 30 subdivisions": (
+        '[[body]]\nshape = { type = "icosphere", subdivisions = 30 }\n',
+        [],
+        "2.31e+19 faces",
+    ),
+    "cylinder of 1e10 sections": (
+        '[[body]]\nshape = { type = "cylinder", sections = 10000000000 }\n',
+        [],
+        "4e+10 faces",
+    ),
+    "a million seconds recorded": (BOX, ["--seconds", "1e6"], "--record-every"),
+    "1e300 seconds": (BOX, ["--seconds", "1e300"], "seconds = 1e+300"),
+    "dt of 1e-300": ("[world]\ndt = 1e-300\n" + BOX, [], "dt = 1e-300 is"),
+    "mass of 1e-320": (BOX + "mass = 1e-320\n", [], "mass gives this body"),
+    "a 1e-100 m box": (
+        '[[body]]\nshape = { type = "box", extents = [1e-100, 1e-100, 1e-100] }\n',
+        [],
+        "density gives this body (1.73e-100 m across)",
+    ),
+    "a truncated scene": ("[[body]]\nshape = { type = ", [], "s.toml"),
+}
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="address-space limits are POSIX")
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_each_found_case_ends_in_one_line_under_a_memory_limit(tmp_path, case):
+    text, arguments, expected = CASES[case]
+    thesis_rbd_command = console_script()
+    if thesis_rbd_command is None:
+        pytest.skip("the thesis-rbd console script is not installed (pip install -e .)")
+    (tmp_path / "s.toml").write_text(text)
+    (tmp_path / "kept.npz").write_bytes(b"an earlier run")
+    result = subprocess.run(
+        [thesis_rbd_command, "run", "s.toml", "--out", "kept.npz", "--html", "p.html",
+         "--quiet", *arguments],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120, preexec_fn=_limit_memory,
+    )  # fmt: skip
+    assert result.returncode == 1, result.stderr
+    (line,) = message_lines(result.stderr)
+    assert line.startswith("thesis-rbd: error: ") and expected in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.npz", "s.toml"]
+    assert (tmp_path / "kept.npz").read_bytes() == b"an earlier run"
+
+
+def test_play_on_malformed_run_files_ends_in_one_line(tmp_path):
+    """Files with the format tag but fields of the wrong type once gave 42-line TypeErrors."""
+    import numpy as np
+
+    import thesis_rbd as rbd
+
+    world = rbd.World()
+    world.add_body(rbd.shapes.box())
+    path = tmp_path / "run.npz"
+    rbd.simulate(world, 0.05).save(path)
+    with np.load(path) as data:
+        arrays = {key: data[key] for key in data.files}
+    for field, value in (("metadata", np.array("[1, 2]")), ("names", np.array("body0")),
+                         ("vertex_offsets", np.array([0.0, 8.0]))):  # fmt: skip
+        np.savez(path, **{**arrays, field: value})
+        thesis_rbd_command = console_script()
+        if thesis_rbd_command is None:
+            pytest.skip("the thesis-rbd console script is not installed (pip install -e .)")
+        result = subprocess.run(
+            [thesis_rbd_command, "play", "run.npz", "--html", "p.html"],
+            cwd=tmp_path, capture_output=True, text=True, timeout=120,
+            preexec_fn=_limit_memory,
+        )  # fmt: skip
+        assert result.returncode == 1
+        (line,) = message_lines(result.stderr)
+        assert line.startswith(f"thesis-rbd: error: run.npz: field {field!r}") or (
+            field == "metadata" and "metadata must be a JSON object" in line
+        ), line
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["run.npz"]
