@@ -156,6 +156,16 @@ def _in_box(P, L, k, w):
 
 
 @njit(allocates=False)
+def _triangle_box_bound(P, L, k, w0, w1, w2, cutoff):
+    """Lower bound on the distance of box k of tree (P, L) and the triangle of corners w0,
+    w1, w2 (in that tree's mesh frame): :func:`.box_distance.triangle_box_gap`."""
+    return triangle_box_gap(
+        _in_box(P, L, k, w0), _in_box(P, L, k, w1), _in_box(P, L, k, w2), half_extent(P, L, k),
+        cutoff,
+    )  # fmt: skip
+
+
+@njit(allocates=False)
 def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
     """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
     return triangle_gap(*pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab))
@@ -285,18 +295,12 @@ def mesh_distance(Pa, Pb, Mab, tab):
                     if x != carried_triangle_a:
                         wa0, wa1, wa2 = _carried_triangle(Pa, La, -x - 1, Mba, tba)
                         carried_triangle_a = x
-                    v0 = _in_box(Pb, Lb, y, wa0)
-                    v1 = _in_box(Pb, Lb, y, wa1)
-                    v2 = _in_box(Pb, Lb, y, wa2)
-                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pb, Lb, y), best)
+                    bound = _triangle_box_bound(Pb, Lb, y, wa0, wa1, wa2, best)
                 else:
                     if y != carried_triangle_b:
                         wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y - 1, Mab, tab)
                         carried_triangle_b = y
-                    v0 = _in_box(Pa, La, x, wb0)
-                    v1 = _in_box(Pa, La, x, wb1)
-                    v2 = _in_box(Pa, La, x, wb2)
-                    bound = triangle_box_gap(v0, v1, v2, half_extent(Pa, La, x), best)
+                    bound = _triangle_box_bound(Pa, La, x, wb0, wb1, wb2, best)
                 if k == 0:
                     b0 = bound
                 else:
