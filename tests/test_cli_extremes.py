@@ -2,8 +2,9 @@
 
 A generated set (hypothesis) of scenes whose fields hold extreme numbers, huge integers and
 wrong types, each run by ``thesis-rbd run`` in a subprocess under a 4 GiB address-space limit:
-every one ends within seconds either in a run (exit 0) or in exit 1 with one line naming the
-scene file, and leaves no file behind.
+every one ends either in a run (exit 0) or in exit 1 with one line naming the scene file, and
+leaves no file behind. (Refusals take about a second; the generous timeouts are for the first
+valid scene of a fresh checkout, which compiles its kernels.)
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def test_extreme_scene_values_end_in_a_run_or_one_line(tmp_path_factory, text):
     result = subprocess.run(
         [thesis_rbd_command, "run", "s.toml", "--seconds", "0.01", "--out", "run.npz",
          "--quiet"],
-        cwd=folder, capture_output=True, text=True, timeout=120, preexec_fn=_limit_memory,
+        cwd=folder, capture_output=True, text=True, timeout=900, preexec_fn=_limit_memory,
     )  # fmt: skip
     assert "Traceback" not in result.stderr, text
     if result.returncode == 0:
@@ -127,7 +128,7 @@ def test_each_found_case_ends_in_one_line_under_a_memory_limit(tmp_path, case):
     result = subprocess.run(
         [thesis_rbd_command, "run", "s.toml", "--out", "kept.npz", "--html", "p.html",
          "--quiet", *arguments],
-        cwd=tmp_path, capture_output=True, text=True, timeout=120, preexec_fn=_limit_memory,
+        cwd=tmp_path, capture_output=True, text=True, timeout=900, preexec_fn=_limit_memory,
     )  # fmt: skip
     assert result.returncode == 1, result.stderr
     (line,) = message_lines(result.stderr)
@@ -156,7 +157,7 @@ def test_play_on_malformed_run_files_ends_in_one_line(tmp_path):
             pytest.skip("the thesis-rbd console script is not installed (pip install -e .)")
         result = subprocess.run(
             [thesis_rbd_command, "play", "run.npz", "--html", "p.html"],
-            cwd=tmp_path, capture_output=True, text=True, timeout=120,
+            cwd=tmp_path, capture_output=True, text=True, timeout=900,
             preexec_fn=_limit_memory,
         )  # fmt: skip
         assert result.returncode == 1
