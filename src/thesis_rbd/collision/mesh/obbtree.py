@@ -442,19 +442,21 @@ class OBBTree:
         self._packed = None
         # the packed array with the hull block, once a distance query has asked for it
         self._hull_packed = None
+        self.children = children
+        self.children.flags.writeable = False
         if dtype == np.float64:
             # The public box arrays are views into the query array (see :mod:`.packed`).
             self._packed = pack_tree(
                 centers, rotations, halves, children, self.root, self.leafless, self.depth,
                 mesh.vertices, mesh.faces,
             )  # fmt: skip
-            centers, rotations, halves = packed_views(self._packed)
-        self.centers = centers.astype(dtype, copy=False)
-        self.rotations = rotations.astype(dtype, copy=False)
-        self.half_extents = halves.astype(dtype, copy=False)
-        self.children = children
-        for array in (self.centers, self.rotations, self.half_extents, self.children):
-            array.flags.writeable = False
+            self._view(self._packed)
+        else:
+            self.centers = centers.astype(dtype)
+            self.rotations = rotations.astype(dtype)
+            self.half_extents = halves.astype(dtype)
+            for array in (self.centers, self.rotations, self.half_extents):
+                array.flags.writeable = False
 
     def query_array(self, hull: bool = False) -> np.ndarray:
         """The packed (rows, 3) float64 array the query kernels read (:mod:`.packed`).

@@ -38,7 +38,7 @@ _MEET = 1e-12
 
 
 @njit(allocates=False)
-def _climb(F, h, xyz, start, neighbours, dx, dy, dz, v):
+def _climb(F, xyz, start, neighbours, dx, dy, dz, v):
     """Hull vertex farthest along (dx, dy, dz), climbing the vertex graph from vertex v."""
     best = dx * F[xyz + 3 * v] + dy * F[xyz + 3 * v + 1] + dz * F[xyz + 3 * v + 2]
     moved = True
@@ -156,11 +156,11 @@ def hull_distance(Pa, La, Pb, Lb, M, t):
         if v2 == 0.0:
             break
         # support of M along -v: A's along -v, B's along +v (in B's frame, M^T v)
-        va = _climb(Fa, ha, xa, sa, na, -vx, -vy, -vz, va)
+        va = _climb(Fa, xa, sa, na, -vx, -vy, -vz, va)
         ex = M[0] * vx + M[3] * vy + M[6] * vz
         ey = M[1] * vx + M[4] * vy + M[7] * vz
         ez = M[2] * vx + M[5] * vy + M[8] * vz
-        vb = _climb(Fb, hb, xb, sb, nb, ex, ey, ez, vb)
+        vb = _climb(Fb, xb, sb, nb, ex, ey, ez, vb)
         bx, by, bz = Fb[xb + 3 * vb], Fb[xb + 3 * vb + 1], Fb[xb + 3 * vb + 2]
         wx = Fa[xa + 3 * va] - (M[0] * bx + M[1] * by + M[2] * bz + t[0])
         wy = Fa[xa + 3 * va + 1] - (M[3] * bx + M[4] * by + M[5] * bz + t[1])
