@@ -98,6 +98,7 @@ class CollisionPipeline:
         self._reach = 0.0
         self._may_pair = np.zeros(0, bool)
         self._static = np.zeros(0, bool)
+        self._excluded_keys = np.zeros(0, np.int64)
 
     def add_body(self, mesh, center_of_mass_local) -> None:
         """Register the next body's mesh (its tree is shared with bodies of the same mesh).
@@ -117,7 +118,7 @@ class CollisionPipeline:
         self.box_offset = np.vstack([self.box_offset, 0.5 * (lower + upper) - center_of_mass_local])
         self.box_half = np.vstack([self.box_half, 0.5 * (upper - lower)])
 
-    def plan(self, bodies, reach: float = 0.0) -> None:
+    def plan(self, bodies, reach: float = 0.0, excluded=None) -> None:
         """Take the bodies' constants as they are now (the world plans again whenever a body
         is added); the next bounds stage must refit every fat box.
 
@@ -129,8 +130,15 @@ class CollisionPipeline:
         reach : float
             Gap (>= 0) that any convex pair gets speculative contacts across, whatever the
             bodies' sizes (see ``convex.contacts``): the world's fall in one step.
+        excluded : (p, 2) int64, optional
+            Body pairs that never collide (jointed bodies, ``World.exclude_pair``).
         """
         n = bodies.count
+        excluded = np.zeros((0, 2), np.int64) if excluded is None else excluded
+        self._excluded_keys = np.unique(
+            np.minimum(excluded[:, 0], excluded[:, 1]) * n
+            + np.maximum(excluded[:, 0], excluded[:, 1])
+        )
         self._reach = float(reach)
         self._static = bodies.static.copy()
         self._may_pair = bodies.collidable.copy()
@@ -203,7 +211,11 @@ class CollisionPipeline:
                 pairs = self.sap.pairs
                 i, j = pairs[:, 0], pairs[:, 1]
                 may, static = self._may_pair, self._static
-                pairs = pairs[may[i] & may[j] & ~(static[i] & static[j])]
+                keep = may[i] & may[j] & ~(static[i] & static[j])
+                if len(self._excluded_keys):
+                    keys = np.minimum(i, j) * len(may) + np.maximum(i, j)
+                    keep &= ~np.isin(keys, self._excluded_keys)
+                pairs = pairs[keep]
             self.fat_pairs = pairs
             self.pair_members = np.unique(pairs) if len(pairs) else np.zeros(0, np.int64)
             self._candidates = np.empty_like(pairs)

@@ -188,7 +188,7 @@ class SleepState:
         self.wake(hits)
         return True
 
-    def update(self, bodies, contacts, dt) -> np.ndarray:
+    def update(self, bodies, contacts, dt, links=None) -> np.ndarray:
         """Advance still-times and put still islands to sleep.
 
         Parameters
@@ -198,6 +198,9 @@ class SleepState:
         contacts : ContactSet
             This step's contacts (they define the islands).
         dt : float
+        links : (j, 2) int64, optional
+            Body pairs joints hold (-1: the world): they join islands as contacts do, and a
+            body jointed to the world rests on it.
 
         Returns
         -------
@@ -217,7 +220,15 @@ class SleepState:
         self._still_any = longest > 0.0
         if longest < s.time_to_sleep:
             return np.zeros(0, np.int64)  # nobody has been still long enough: no island work
-        body_island, _, _ = find_islands(n, contacts["body_a"], contacts["body_b"], static)
+        a, b = contacts["body_a"], contacts["body_b"]
+        to_world = np.zeros(0, np.int64)
+        if links is not None and len(links):
+            # a body jointed to the world rests on it (its own pair makes it an island)
+            to_world = links[links[:, 1] < 0, 0]
+            between = links[links[:, 1] >= 0]
+            a = np.concatenate([a, between[:, 0], to_world])
+            b = np.concatenate([b, between[:, 1], to_world])
+        body_island, _, _ = find_islands(n, a, b, static)
         awake = ~(static | self.asleep)
         # bodies touching nothing are islands of their own
         lonely = awake & (body_island < 0)
@@ -229,9 +240,8 @@ class SleepState:
         # rests on something that does not move: a static body or a sleeping island (a body
         # slow at the top of its flight, or drifting in zero gravity, is still but not at rest)
         moving_labels = np.unique(labels[awake & ~candidates])
-        a, b = contacts["body_a"], contacts["body_b"]
         held = static | self.asleep
-        on_support = np.concatenate([a[held[b] & ~held[a]], b[held[a] & ~held[b]]])
+        on_support = np.concatenate([a[held[b] & ~held[a]], b[held[a] & ~held[b]], to_world])
         sleepy = candidates & ~np.isin(labels, moving_labels) & np.isin(labels, labels[on_support])
         fell = np.flatnonzero(sleepy)
         if len(fell) == 0:

@@ -9,6 +9,7 @@ STAGE_NAMES = (
     "forces",
     "contacts",
     "integrate",
+    "joints",
     "bounds",
     "broad_phase",
     "narrow_phase",

@@ -1,8 +1,8 @@
 """The step, written once: every stage of a world step in one kernel, in order, each behind
 its guard.
 
-    forces -> contacts -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling
-           -> time_of_impact -> impacts -> sleep
+    forces -> contacts -> integrate -> joints -> bounds -> broad_phase -> narrow_phase
+           -> tunnelling -> time_of_impact -> impacts -> sleep
 
 ``run_steps`` runs steps from a given stage of the current one, as many as asked, and stops
 at the first stage whose guard holds but whose work needs Python:
@@ -15,7 +15,7 @@ at the first stage whose guard holds but whose work needs Python:
 The world runs that stage (``world.py``) and calls again from the next one, so the stage
 order, every guard and the save at the start of a step exist here only; a stage is skipped,
 uncalled, when its guard says it has nothing to do. Parts of the world a scene does not have
-are passed as None (no contact response, no collision, not every body convex), and numba
+are passed as None (no contact response, no joint, no collision, not every body convex), and numba
 compiles their stages out: a free-flying body compiles the integrator and nothing else.
 
 Each stage's time is counted in processor cycles (``_numba.cycle_counter``); the world shares
@@ -40,6 +40,7 @@ from thesis_rbd.dynamics.contact_settings import SLOP
 from thesis_rbd.dynamics.contact_stats import BAD_BODY
 from thesis_rbd.dynamics.impacts import may_have_hit
 from thesis_rbd.dynamics.integrators import integrate_bodies
+from thesis_rbd.dynamics.joint_solver import step_jointed_bodies
 from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.world.stage_names import STAGE_NAMES
 
@@ -48,6 +49,7 @@ __all__ = ["END_OF_STEP", "FINISHED", "run_steps"]
 FORCES = STAGE_NAMES.index("forces")
 CONTACTS = STAGE_NAMES.index("contacts")
 INTEGRATE = STAGE_NAMES.index("integrate")
+JOINTS = STAGE_NAMES.index("joints")
 BOUNDS = STAGE_NAMES.index("bounds")
 BROAD_PHASE = STAGE_NAMES.index("broad_phase")
 NARROW_PHASE = STAGE_NAMES.index("narrow_phase")
@@ -70,7 +72,7 @@ def run_steps(
     external_force, drag, pf_start, pf_arm, pf_force,
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum,
     start_position, start_orientation, solved, reach_back,
-    contact_group, detection_group, convex_group,
+    contact_group, joint_group, detection_group, convex_group,
     contacts, acted, warm, cache,
     candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
     cycles, calls,
@@ -122,6 +124,13 @@ def run_steps(
         ``dt``, less for a body the tunnelling stage caught part way.
     contact_group : tuple or None
         ``(settings, polygon, stats)`` of the contact stage; None without a contact response.
+    joint_group : tuple or None
+        ``(substeps, ints, floats, joint_start, island_joints, body_start, island_bodies,
+        jointed, unintegrated, substep_position, substep_orientation, impulse)`` of the joints
+        stage
+        (``World._joint_arguments``); None without joints. The integrator then skips the
+        bodies ``unintegrated`` (>= n,) bool marks, the frozen and the jointed, which the
+        joints stage moves.
     detection_group : tuple or None
         ``(size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half,
         speculative, reach, tight, candidates)`` of the detection stages
@@ -173,6 +182,12 @@ def run_steps(
         ) = detection_group  # fmt: skip
     if convex_group is not None:
         hull_of_body, hull_arrays, longest_loop, query_scratch, com_local = convex_group
+    if joint_group is not None:
+        (
+            joint_substeps, joint_ints, joint_floats, joint_start, island_joints, body_start,
+            island_bodies, jointed, unintegrated, substep_position, substep_orientation,
+            joint_impulse,
+        ) = joint_group  # fmt: skip
     while done < steps:
         start = cycle_count()
         if stage == FORCES:
@@ -209,8 +224,13 @@ def run_steps(
                     stop, bad = CONTACTS, stats[BAD_BODY]
                     break
         if stage <= INTEGRATE and planned[INTEGRATE] and awake:
+            skipped = frozen
+            if joint_group is not None:
+                for i in range(count):
+                    unintegrated[i] = frozen[i] or jointed[i]
+                skipped = unintegrated
             bad = integrate_bodies(
-                method, dt, count, frozen, solved, position, orientation, linear_momentum,
+                method, dt, count, skipped, solved, position, orientation, linear_momentum,
                 angular_momentum, inverse_mass, inverse_inertia_body, external_force, drag,
                 pf_start, pf_arm, pf_force, detection_group is not None, start_position,
                 start_orientation,
@@ -218,6 +238,19 @@ def run_steps(
             start = _count_stage(INTEGRATE, start, cycles, calls)
             if bad >= 0:
                 stop = INTEGRATE
+                break
+        if stage <= JOINTS and joint_group is not None and awake:
+            bad = step_jointed_bodies(
+                joint_substeps, dt, count, frozen, solved, joint_ints, joint_floats, joint_start,
+                island_joints, body_start, island_bodies, substep_position, substep_orientation,
+                position,
+                orientation, linear_momentum, angular_momentum, inverse_mass,
+                inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+                detection_group is not None, start_position, start_orientation, joint_impulse,
+            )  # fmt: skip
+            start = _count_stage(JOINTS, start, cycles, calls)
+            if bad >= 0:
+                stop = JOINTS
                 break
         if detection_group is not None:
             if stage <= BOUNDS and planned[BOUNDS] and awake:

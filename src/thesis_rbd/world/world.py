@@ -3,12 +3,13 @@
 A step runs only the stages the scene calls for (``World.stages``), each timed into
 ``World.profile``, and the stages hand each other one explicit value (``StepState``):
 
-    forces -> contacts -> integrate -> bounds -> broad_phase -> narrow_phase -> tunnelling
-           -> time_of_impact -> impacts -> sleep
+    forces -> contacts -> integrate -> joints -> bounds -> broad_phase -> narrow_phase
+           -> tunnelling -> time_of_impact -> impacts -> sleep
 
 ``contacts`` resolves the contacts found at the end of the previous step (where the bodies are
 now) before anything moves, so resting bodies never sink under gravity; ``integrate`` moves the
-bodies it acted on with their new velocities and every other body by the chosen ODE method;
+bodies it acted on with their new velocities and every other free body by the chosen ODE
+method; ``joints`` moves the jointed bodies by symplectic Euler and holds their joints;
 detection then finds the contacts of the new positions, which are the next step's;
 ``time_of_impact`` steps bodies that flew into something back to the moment they touched, and
 ``impacts`` resolves those collisions and carries the bodies to the end of the step.
@@ -52,8 +53,11 @@ from thesis_rbd.dynamics.forces import (
 )
 from thesis_rbd.dynamics.impacts import find_hits, resolve_impacts
 from thesis_rbd.dynamics.integrators import INTEGRATORS
+from thesis_rbd.dynamics.joint_set import JointSet
+from thesis_rbd.dynamics.joint_solver import MOST_SUBSTEPS
 from thesis_rbd.dynamics.pgs import friction_polygon
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
+from thesis_rbd.world.joint_api import WorldJoints
 from thesis_rbd.world.readout import WorldReadout
 from thesis_rbd.world.stage_names import STAGE_NAMES
 from thesis_rbd.world.stage_profile import StageProfile
@@ -94,6 +98,17 @@ MOST_FORCE = 1e150
 # Rounds of collisions the impact stage resolves in one step: a body carried on after its
 # collision may run into another within the step, and that one into a third.
 IMPACT_ROUNDS = 8
+
+
+def _checked_substeps(value) -> int | str:
+    """``joint_substeps`` as given: "auto" or an integer in [1, MOST_SUBSTEPS]."""
+    if isinstance(value, str) and value == "auto":
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f'joint_substeps must be "auto" or an integer >= 1, got {value!r}')
+    if not 1 <= value <= MOST_SUBSTEPS:
+        raise ValueError(f"joint_substeps must be between 1 and {MOST_SUBSTEPS}, got {value}")
+    return int(value)
 
 
 class NonFiniteStateError(FloatingPointError):
@@ -137,7 +152,7 @@ class _StepStart:
     sleep: tuple | None = None
 
 
-class World(WorldReadout):
+class World(WorldReadout, WorldJoints):
     """A rigid-body world stepped at a fixed time step.
 
     Parameters
@@ -171,6 +186,10 @@ class World(WorldReadout):
     narrow_phase : {"auto", "mesh"}
         "auto": pairs of convex bodies collide as convex polyhedra (separating axes, GJK and
         EPA), the others through the OBBTree; "mesh": the OBBTree for every pair.
+    joint_substeps : int or "auto"
+        Equal parts each step of the jointed bodies is taken in (``dynamics.joint_solver``):
+        light links carrying a heavy load need more than one. "auto" chooses for each island
+        and step from the tension its lightest, shortest links carried over the last step.
     """
 
     def __init__(
@@ -188,6 +207,7 @@ class World(WorldReadout):
         penetration: str = ContactSettings.penetration,
         sleeping: bool = True,
         narrow_phase: str = "auto",
+        joint_substeps: int | str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         if self.dt > MAX_DT:
@@ -198,6 +218,7 @@ class World(WorldReadout):
                 f"unknown integrator {integrator!r}; choose one of {sorted(INTEGRATORS)}"
             )
         self.integrator = integrator
+        self.joint_substeps = _checked_substeps(joint_substeps)
         self.drag = DragCoefficients(linear_drag, quadratic_drag, angular_drag)
         self._drag_array = np.array([linear_drag, quadratic_drag, angular_drag], dtype=np.float64)
         self.time = 0.0
@@ -215,6 +236,9 @@ class World(WorldReadout):
         self._collision = CollisionPipeline(narrow_phase)
         self.narrow_phase = narrow_phase
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
+        self._joints = JointSet()
+        self._excluded = np.zeros((0, 2), np.int64)
+        self._joint_impulse = np.zeros((0, 6))
         self._state = StepState.initial(0, len(STATS))
         self._plan_stages()
 
@@ -348,8 +372,10 @@ class World(WorldReadout):
         toi = responds and self.contact_settings.penetration == "toi"
         # bodies come to rest through contact: without collisions nothing would sleep
         sleeps = collides and self._sleep.settings.enabled
+        jointed = dynamic and len(self._joints) > 0
         planned = {
             "forces": gathers_forces, "contacts": responds, "integrate": dynamic,
+            "joints": jointed,
             "bounds": collides, "broad_phase": collides, "narrow_phase": collides,
             "tunnelling": collides, "time_of_impact": toi, "impacts": toi, "sleep": sleeps,
         }  # fmt: skip
@@ -360,7 +386,9 @@ class World(WorldReadout):
         # that lost its support for a step falls g dt^2 and gains g dt): a 2 mm cube's is
         # 8 % of its edge, far beyond the margin relative to its size
         reach = 2.0 * float(np.linalg.norm(self.gravity)) * self.dt**2
-        self._collision.plan(b, reach)
+        self._collision.plan(
+            b, reach, np.concatenate([self._excluded, self._joints.excluded_pairs()])
+        )
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
         fast = np.zeros(n, bool)
@@ -387,12 +415,27 @@ class World(WorldReadout):
              self._state.contact_stats)
             if responds else None
         )  # fmt: skip
+        self._joint_group = self._joint_arguments() if jointed else None
         detector = self._collision
         self._detection_group = detector.detection_arguments(self.dt, fast) if collides else None
         self._convex_group = detector.convex_arguments() if collides else None
         self._method = INTEGRATORS[self.integrator]
         self._stage_cycles = np.zeros(len(STAGE_NAMES), np.int64)
         self._stage_calls = np.zeros(len(STAGE_NAMES), np.int64)
+
+    def _joint_arguments(self) -> tuple:
+        """What the step kernel's joint stages take (``run_steps``'s ``joint_group``)."""
+        joints, b = self._joints, self.bodies
+        islands = joints.islands(b.static)
+        self._joint_impulse = np.zeros((len(joints), 6))
+        rows = len(b.full("inverse_mass"))
+        jointed = np.zeros(rows, bool)
+        jointed[: b.count] = joints.jointed(b.count)
+        return (
+            0 if self.joint_substeps == "auto" else self.joint_substeps, joints.ints,
+            joints.floats, *islands, jointed, np.zeros(rows, bool), np.zeros((rows, 3)),
+            np.zeros((rows, 4)), self._joint_impulse,
+        )  # fmt: skip
 
     def _sleep_fields(self) -> dict:
         """The step state's fields that follow who sleeps: ``frozen`` (n,) bool marks the
@@ -464,7 +507,8 @@ class World(WorldReadout):
             self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
             pf.force, *self._saved, s.start_position, s.start_orientation, s.solved,
-            s.reach_back, self._contact_group, self._detection_group, self._convex_group,
+            s.reach_back, self._contact_group, self._joint_group, self._detection_group,
+            self._convex_group,
             *handed_in,
             s.candidate_count, s.fast_count, s.slowest, s.fat_changed, s.refit_all, s.rewound,
             cycles, calls,
@@ -714,7 +758,7 @@ class World(WorldReadout):
     def _fall_asleep(self, s: StepState) -> StepState:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
-        fell = self._sleep.update(b, s.contacts, self.dt)
+        fell = self._sleep.update(b, s.contacts, self.dt, self._joints.ints[:, 1:3])
         if not len(fell):
             return s
         b.linear_momentum[fell] = 0.0

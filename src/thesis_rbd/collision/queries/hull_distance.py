@@ -179,7 +179,10 @@ def hull_distance(Pa, La, Pb, Lb, M, t):
         n, vx, vy, vz = closest_on_simplex(P, ia, ib, n + 1, rows)
         if n == 4:
             break
-    if lower <= 0.0 or n == 0 or n == 4:
+    # a simplex that ends as a tetrahedron is round-off where the hulls touch flat on flat
+    # (coplanar hull vertices): if a support plane separated them, its gap is still a lower
+    # bound, and the triangles around all four vertices are measured against it
+    if lower <= 0.0 or n == 0:
         return False, math.inf, no, no, -1, -1, 0
     return _measure(Pa, La, Pb, Lb, M, t, Fa, fsa, fa, Fb, fsb, fb, ia, ib, n, lower)
 

@@ -1,0 +1,242 @@
+"""The constraint rows of a joint, and what a joint reads out: its position, velocity, gap and
+angular error.
+
+A row is one scalar constraint C(x_a, q_a, x_b, q_b) = 0 with its Jacobian: moving body a by
+dx_a and turning it by the small world rotation dtheta_a (and b likewise) changes C by
+
+    dC = lin . dx_a + ang_a . dtheta_a - lin . dx_b + ang_b . dtheta_b
+
+so an impulse ``lam`` along the row gives body a the momentum ``lin lam`` and angular
+momentum ``ang_a lam`` (about its centre of mass), and body b ``-lin lam`` and
+``ang_b lam``: equal and opposite at the point the row acts, which is why joint impulses
+conserve the total linear and angular momentum. Rows of each kind (``joint_set``):
+
+* anchors together: C = (p_a - p_b) . e_k for the world axes e_k, where p = x + R arm;
+  lin = e_k, ang_a = r_a x e_k, ang_b = -(r_b x e_k) with r = R arm;
+* axes parallel (revolute): C = a_a . n_b and a_a . m_b for a's axis and b's two
+  perpendiculars; ang_a = a_a x n_b = -ang_b;
+* orientation held (fixed, prismatic): C = theta_k, the world rotation vector that takes a's
+  orientation at zero, q_b q_rel0, to its orientation q_a; ang_a = e_k = -ang_b;
+* on b's line (prismatic): C = (p_a - p_b) . n_b and . m_b, acting at p_a on both bodies
+  (b's perpendiculars turn with b): ang_b = -((p_a - x_b) x n_b);
+* at the rod's length (distance): C = |p_a - p_b| - length along d = (p_a - p_b) / |.|.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thesis_rbd._numba.jit import njit
+from thesis_rbd.dynamics.joint_set import (
+    ARM_A,
+    ARM_B,
+    AXIS_A,
+    AXIS_B,
+    BINORMAL_B,
+    JOINT_KINDS,
+    LENGTH,
+    NORMAL_B,
+    RELATIVE_ORIENTATION,
+)
+from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
+
+__all__ = ["ROWS_OF_KIND", "joint_readout", "joint_rows", "read_joints"]
+
+SPHERICAL = JOINT_KINDS["spherical"]
+REVOLUTE = JOINT_KINDS["revolute"]
+FIXED = JOINT_KINDS["fixed"]
+PRISMATIC = JOINT_KINDS["prismatic"]
+DISTANCE = JOINT_KINDS["distance"]
+# Rows of each kind, by code.
+ROWS_OF_KIND = (3, 5, 6, 5, 1)
+
+
+@njit(allocates=False)
+def _cross(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+@njit(allocates=False)
+def _dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+@njit(allocates=False)
+def _vector(f, start):
+    return (f[start], f[start + 1], f[start + 2])
+
+
+@njit(allocates=False)
+def _write(rows, k, lin, ang_a, ang_b, error):
+    """Row k of ``rows`` (r, 10): lin (3), ang_a (3), ang_b (3), error."""
+    for i in range(3):
+        rows[k, i] = lin[i]
+        rows[k, 3 + i] = ang_a[i]
+        rows[k, 6 + i] = ang_b[i]
+    rows[k, 9] = error
+
+
+@njit(allocates=False)
+def _frames(f, xa, qa, xb, qb):
+    """World arms r_a, r_b, anchors' offset p_a - p_b."""
+    ra = rotate(qa, _vector(f, ARM_A))
+    rb = rotate(qb, _vector(f, ARM_B))
+    gap = (xa[0] + ra[0] - xb[0] - rb[0], xa[1] + ra[1] - xb[1] - rb[1],
+           xa[2] + ra[2] - xb[2] - rb[2])  # fmt: skip
+    return ra, rb, gap
+
+
+@njit(allocates=False)
+def _orientation_error(f, qa, qb):
+    """World rotation vector from a's orientation at zero (q_b q_rel0) to q_a."""
+    q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
+          f[RELATIVE_ORIENTATION + 3])  # fmt: skip
+    e = mul(qa, conjugate(mul(qb, q0)))
+    s = 2.0 if e[3] >= 0.0 else -2.0
+    return (s * e[0], s * e[1], s * e[2])
+
+
+@njit(allocates=False)
+def joint_rows(kind, f, xa, qa, xb, qb, rows, first):
+    """Write the rows of one joint at the poses given into ``rows[first:]``.
+
+    Parameters
+    ----------
+    kind : int
+        A code of ``JOINT_KINDS``.
+    f : (JOINT_FLOATS,) float64
+        The joint's row of ``JointSet.floats``.
+    xa, qa, xb, qb : tuples
+        Centres of mass and (x, y, z, w) orientations of bodies a and b (the world: origin
+        and identity).
+    rows : (r, 10) float64
+        Out: lin, ang_a, ang_b, error per row (module docstring).
+    first : int
+
+    Returns
+    -------
+    int
+        The number of rows written.
+    """
+    ra, rb, gap = _frames(f, xa, qa, xb, qb)
+    zero = (0.0, 0.0, 0.0)
+    k = first
+    if kind == DISTANCE:
+        length = math.sqrt(_dot(gap, gap))
+        d = (1.0, 0.0, 0.0) if length == 0.0 else (gap[0] / length, gap[1] / length,
+                                                  gap[2] / length)  # fmt: skip
+        rbn = _cross(rb, d)
+        _write(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), length - f[LENGTH])
+        return 1
+    if kind == PRISMATIC:
+        # b's line through its anchor: the offset across it, acting at p_a on both bodies
+        arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+        for column in (NORMAL_B, BINORMAL_B):
+            d = rotate(qb, _vector(f, column))
+            across = _cross(arm, d)
+            _write(rows, k, d, _cross(ra, d), (-across[0], -across[1], -across[2]),
+                   _dot(gap, d))  # fmt: skip
+            k += 1
+    else:
+        for axis in range(3):
+            d = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
+            rbn = _cross(rb, d)
+            _write(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), gap[axis])
+            k += 1
+    if kind == REVOLUTE:
+        a = rotate(qa, _vector(f, AXIS_A))
+        for column in (NORMAL_B, BINORMAL_B):
+            n = rotate(qb, _vector(f, column))
+            t = _cross(a, n)
+            _write(rows, k, zero, t, (-t[0], -t[1], -t[2]), _dot(a, n))
+            k += 1
+    elif kind == FIXED or kind == PRISMATIC:
+        theta = _orientation_error(f, qa, qb)
+        for axis in range(3):
+            e = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
+            _write(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
+            k += 1
+    return k - first
+
+
+@njit(allocates=False)
+def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
+    """A joint's position, velocity, gap (m) and angular error (rad) at the state given.
+
+    Position and velocity are a revolute joint's angle (rad, in (-pi, pi]) and rate, a
+    prismatic joint's travel and speed, a distance joint's length and rate, all of body a
+    relative to body b about / along +axis; zero for the other kinds. Gap is how far the
+    joint is from holding its position rows, angular error how far from its angular rows.
+    """
+    ra, _, gap = _frames(f, xa, qa, xb, qb)
+    axis_b = rotate(qb, _vector(f, AXIS_B))
+    # velocity of a's anchor relative to the point of b under it
+    arm_b = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+    ua, ub = _cross(wa, ra), _cross(wb, arm_b)
+    relative = (va[0] + ua[0] - vb[0] - ub[0], va[1] + ua[1] - vb[1] - ub[1],
+                va[2] + ua[2] - vb[2] - ub[2])  # fmt: skip
+    position = velocity = angle_error = 0.0
+    gap_length = math.sqrt(_dot(gap, gap))
+    distance = gap_length
+    if kind == DISTANCE:
+        position = gap_length
+        distance = abs(gap_length - f[LENGTH])
+        if gap_length > 0.0:
+            velocity = _dot(relative, gap) / gap_length
+    elif kind == PRISMATIC:
+        position = _dot(gap, axis_b)
+        velocity = _dot(relative, axis_b) + _dot(gap, _cross(wb, axis_b))
+        across = (gap[0] - position * axis_b[0], gap[1] - position * axis_b[1],
+                  gap[2] - position * axis_b[2])  # fmt: skip
+        distance = math.sqrt(_dot(across, across))
+    if kind == REVOLUTE:
+        q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
+              f[RELATIVE_ORIENTATION + 3])  # fmt: skip
+        e = mul(mul(conjugate(qb), qa), conjugate(q0))
+        along = _dot(e, _vector(f, AXIS_B))
+        position = 2.0 * math.atan2(along, e[3])
+        if position > math.pi:
+            position -= 2.0 * math.pi
+        elif position <= -math.pi:
+            position += 2.0 * math.pi
+        velocity = _dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis_b)
+        a = rotate(qa, _vector(f, AXIS_A))
+        c = _cross(a, axis_b)
+        angle_error = math.atan2(math.sqrt(_dot(c, c)), _dot(a, axis_b))
+    elif kind == FIXED or kind == PRISMATIC:
+        theta = _orientation_error(f, qa, qb)
+        half = 0.5 * math.sqrt(_dot(theta, theta))
+        angle_error = 2.0 * math.asin(min(half, 1.0))
+    return position, velocity, distance, angle_error
+
+
+@njit
+def read_joints(ints, floats, position, orientation, velocity, angular_velocity):
+    """(m, 4) float64: ``joint_readout`` of every joint (``JointSet`` arrays ``ints``,
+    ``floats``) from the bodies' (>= n, 3) positions, (>= n, 4) orientations and (>= n, 3)
+    world velocities and angular velocities."""
+    out = np.empty((len(ints), 4))
+    zero, identity = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
+    for j in range(len(ints)):
+        a, b = ints[j, 1], ints[j, 2]
+        xa, qa, va, wa = _state(a, position, orientation, velocity, angular_velocity)
+        xb, qb, vb, wb = zero, identity, zero, zero
+        if b >= 0:
+            xb, qb, vb, wb = _state(b, position, orientation, velocity, angular_velocity)
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = joint_readout(
+            ints[j, 0], floats[j], xa, qa, va, wa, xb, qb, vb, wb
+        )
+    return out
+
+
+@njit(allocates=False)
+def _state(body, position, orientation, velocity, angular_velocity):
+    q = orientation[body]
+    return (
+        _vector(position[body], 0),
+        (q[0], q[1], q[2], q[3]),
+        _vector(velocity[body], 0),
+        _vector(angular_velocity[body], 0),
+    )

@@ -1,0 +1,233 @@
+"""Joints as flat arrays: what ``World.add_joint`` records, and the islands they join.
+
+A joint holds two bodies together at an anchor. Everything the solver needs is stored in the
+bodies' own frames at creation, so the joint is zero where it was made:
+
+* the anchor on each body, relative to its centre of mass in its body frame (``arm_a``,
+  ``arm_b``; for the world, ``arm_b`` is the world point);
+* the joint axis in each body's frame (``axis_a``, ``axis_b``) and two unit vectors
+  perpendicular to it in body b's frame (``normal_b``, ``binormal_b``: right-handed with the
+  axis, ``normal_b x binormal_b = axis_b``);
+* body a's orientation relative to body b's at creation (``relative_orientation``: conj(q_b)
+  q_a), the zero of every angle;
+* the rod length of a distance joint (the anchors' distance at creation);
+* the joint's length scale, the larger bounding radius of its bodies, which sets the
+  tolerance its gap is solved to.
+
+Body b is -1 for the world. Kinds and the constraint rows each one holds (``joint_rows``):
+
+=============  =====  ==============================================================
+kind           rows   held
+=============  =====  ==============================================================
+"spherical"    3      the anchors together
+"revolute"     5      the anchors together, the axes of a and b parallel
+"fixed"        6      the anchors together, the relative orientation
+"prismatic"    5      the anchor of a on b's line through the anchor along the axis,
+                      the relative orientation
+"distance"     1      the anchors at the rod's length
+=============  =====  ==============================================================
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from thesis_rbd._validate import as_finite_array
+from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
+
+__all__ = ["JOINT_KINDS", "JointSet"]
+
+# Kind names and their codes in the kernels (``joint_rows``).
+JOINT_KINDS = {"spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "distance": 4}
+# Kinds the design names that this version does not build yet.
+_LATER_KINDS = ("universal", "generic")
+# Arguments of add_joint this version does not build yet, with the value that means "none".
+_LATER_OPTIONS = {"limits": None, "motor": None, "spring": None, "damping": 0.0, "friction": 0.0}
+
+# Columns of ``JointSet.floats``.
+ARM_A, ARM_B, AXIS_A, AXIS_B, NORMAL_B, BINORMAL_B = 0, 3, 6, 9, 12, 15
+RELATIVE_ORIENTATION = 18
+LENGTH = 22
+SCALE = 23
+JOINT_FLOATS = 24
+# Columns of ``JointSet.ints``.
+KIND, BODY_A, BODY_B = 0, 1, 2
+# An anchor may lie at most this many times a body's bounding radius from that body's centre
+# (an anchor far from both bodies is a typo in a coordinate, not a design).
+_ANCHOR_REACH = 10.0
+
+
+def _perpendiculars(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (n, m) with (n, m, axis) right-handed and orthonormal."""
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    normal = np.cross(helper, axis)
+    normal /= np.linalg.norm(normal)
+    return normal, np.cross(axis, normal)
+
+
+def _grouped(group, count, items=None) -> tuple[np.ndarray, np.ndarray]:
+    """CSR of ``items`` (default: their indices) by ``group`` (values in [0, count))."""
+    order = np.argsort(group, kind="stable")
+    start = np.concatenate([[0], np.cumsum(np.bincount(group, minlength=count))])
+    members = order if items is None else items[order]
+    return start.astype(np.int64), members.astype(np.int64)
+
+
+class JointSet:
+    """Growable arrays of joints.
+
+    Attributes
+    ----------
+    ints : (m, 3) int64
+        kind code, body a, body b (-1: the world).
+    floats : (m, JOINT_FLOATS) float64
+        The frames of the module docstring.
+    collide : (m,) bool
+        Whether the joint's two bodies still collide with each other.
+    names : list of str
+    """
+
+    def __init__(self):
+        self.ints = np.zeros((0, 3), np.int64)
+        self.floats = np.zeros((0, JOINT_FLOATS))
+        self.collide = np.zeros(0, bool)
+        self.names: list[str] = []
+
+    def __len__(self) -> int:
+        return len(self.ints)
+
+    def add(self, kind, body_a, body_b, anchor, axis, anchor_b, collide, name, bodies, options):
+        """Validate a joint against ``bodies`` (``BodyArrays``) and append it; return its index.
+
+        See ``World.add_joint`` for the arguments; ``options`` holds the arguments this
+        version does not build yet, which must be at their "none" values.
+        """
+        if not isinstance(kind, str) or kind not in JOINT_KINDS:
+            if kind in _LATER_KINDS:
+                raise NotImplementedError(
+                    f"joint kind {kind!r} is not built yet; choose one of {list(JOINT_KINDS)}"
+                )
+            raise ValueError(f"unknown joint kind {kind!r}; choose one of {list(JOINT_KINDS)}")
+        for option, none in _LATER_OPTIONS.items():
+            value = options.get(option, none)
+            if (value is not None) if none is None else (value != none):
+                raise NotImplementedError(f"joint {option} are not built yet; leave {option} out")
+        a = self._body(body_a, "body_a", bodies, allow_world=False)
+        b = self._body(body_b, "body_b", bodies, allow_world=True)
+        if a == b:
+            raise ValueError(f"body_a and body_b are the same body ({a}): a body jointed to itself")
+        if bodies.static[a] and (b < 0 or bodies.static[b]):
+            raise ValueError(
+                f"body_a ({a}) is static and so is body_b: a joint between immovable bodies "
+                "holds nothing"
+            )
+        anchor = as_finite_array(anchor, "anchor", shape=(3,))
+        anchor_b = anchor if anchor_b is None else as_finite_array(anchor_b, "anchor_b", (3,))
+        if kind != "distance" and anchor_b is not anchor and not np.array_equal(anchor, anchor_b):
+            raise ValueError(f"anchor_b is for distance joints only, not {kind!r} joints")
+        axis = as_finite_array(axis, "axis", shape=(3,))
+        length = float(np.linalg.norm(axis))
+        if not length > 0.0:
+            raise ValueError("axis has zero length; give a direction such as (0, 0, 1)")
+        axis = axis / length
+        if b >= 0:
+            self._check_reach(anchor, a, b, "anchor", bodies)
+            if kind == "distance":
+                self._check_reach(anchor_b, a, b, "anchor_b", bodies)
+        rod = float(np.linalg.norm(anchor - anchor_b))
+        if kind == "distance" and not rod > 0.0:
+            raise ValueError(
+                "a distance joint needs anchor_b apart from anchor (its length is their distance)"
+            )
+
+        q_a = bodies.orientation[a]
+        q_b = bodies.orientation[b] if b >= 0 else np.array([0.0, 0.0, 0.0, 1.0])
+        x_b = bodies.position[b] if b >= 0 else np.zeros(3)
+        to_a, to_b = quat_conjugate(q_a), quat_conjugate(q_b)
+        normal, binormal = _perpendiculars(axis)
+        row = np.zeros(JOINT_FLOATS)
+        row[ARM_A : ARM_A + 3] = quat_rotate(to_a, anchor - bodies.position[a])
+        row[ARM_B : ARM_B + 3] = quat_rotate(to_b, anchor_b - x_b)
+        row[AXIS_A : AXIS_A + 3] = quat_rotate(to_a, axis)
+        row[AXIS_B : AXIS_B + 3] = quat_rotate(to_b, axis)
+        row[NORMAL_B : NORMAL_B + 3] = quat_rotate(to_b, normal)
+        row[BINORMAL_B : BINORMAL_B + 3] = quat_rotate(to_b, binormal)
+        row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(to_b, q_a)
+        row[LENGTH] = rod
+        row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
+        self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
+        self.floats = np.vstack([self.floats, row])
+        self.collide = np.append(self.collide, bool(collide))
+        index = len(self.names)
+        if name is not None and (not isinstance(name, str) or not name or "\0" in name):
+            raise ValueError(f"joint name must be a non-empty string, got {name!r}")
+        self.names.append(name if name is not None else f"joint{index}")
+        return index
+
+    @staticmethod
+    def _body(body, field, bodies, allow_world) -> int:
+        if body is None and allow_world:
+            return -1
+        if isinstance(body, bool) or not isinstance(body, int | np.integer):
+            raise ValueError(f"{field} must be a body index, got {body!r}")
+        if not 0 <= body < bodies.count:
+            raise ValueError(f"{field}: no body {body}; the world has {bodies.count} bodies")
+        return int(body)
+
+    @staticmethod
+    def _check_reach(point, a, b, field, bodies) -> None:
+        """Refuse a point far from both bodies (further than ``_ANCHOR_REACH`` bounding
+        radii from each centre): a typo in a coordinate, not a mechanism."""
+        gaps = [float(np.linalg.norm(point - bodies.position[i])) for i in (a, b)]
+        radii = [float(bodies.size[i]) for i in (a, b)]
+        if all(g > _ANCHOR_REACH * r for g, r in zip(gaps, radii, strict=True)):
+            raise ValueError(
+                f"{field} is far from both bodies: {gaps[0]:.6g} m from body_a's centre and "
+                f"{gaps[1]:.6g} m from body_b's, more than {_ANCHOR_REACH:g} times their "
+                f"bounding radii ({radii[0]:.6g} m, {radii[1]:.6g} m)"
+            )
+
+    def jointed(self, count: int) -> np.ndarray:
+        """(count,) bool: the bodies some joint holds."""
+        mask = np.zeros(count, bool)
+        mask[self.ints[:, BODY_A]] = True
+        b = self.ints[:, BODY_B]
+        mask[b[b >= 0]] = True
+        return mask
+
+    def islands(self, static: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Joints and moving bodies grouped by the islands the joints make (static bodies and
+        the world join none).
+
+        Returns
+        -------
+        joint_start, island_joints : (k + 1,), (m,) int64
+            Island i holds the joints ``island_joints[joint_start[i]:joint_start[i + 1]]``
+        body_start, island_bodies : (k + 1,), (b,) int64
+            and the moving bodies ``island_bodies[body_start[i]:body_start[i + 1]]``.
+        """
+        n = len(static)
+        a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]
+        links = (b >= 0) & ~static[a] & ~static[np.maximum(b, 0)]
+        graph = coo_matrix((np.ones(int(links.sum())), (a[links], b[links])), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+        # a joint is in the island of its moving body
+        joint_island = label[np.where(static[a], np.maximum(b, 0), a)]
+        islands, joint_island = np.unique(joint_island, return_inverse=True)
+        moving = np.zeros(n, bool)
+        moving[a] = True
+        moving[b[b >= 0]] = True
+        moving &= ~static
+        bodies = np.flatnonzero(moving)
+        body_island = np.searchsorted(islands, label[bodies])
+        return (*_grouped(joint_island, len(islands)), *_grouped(body_island, len(islands),
+                                                                 bodies))  # fmt: skip
+
+    def excluded_pairs(self) -> np.ndarray:
+        """(p, 2) int64 body pairs (low, high) that must not collide: jointed, collide=False."""
+        a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]
+        keep = ~self.collide & (b >= 0)
+        pairs = np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)[keep]
+        return pairs.astype(np.int64).reshape(-1, 2)

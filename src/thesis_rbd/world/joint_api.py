@@ -1,0 +1,109 @@
+"""The world's joints: adding them, excluding body pairs from collision, and reading out what
+each joint is doing (``World`` inherits these; the solve is ``dynamics.joint_solver``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from thesis_rbd.dynamics.joint_rows import read_joints
+from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, JOINT_KINDS, KIND
+from thesis_rbd.spatial.quaternion import quat_rotate, quat_to_matrix
+
+__all__ = ["WorldJoints"]
+
+_KIND_NAMES = np.array(list(JOINT_KINDS))
+
+
+class WorldJoints:
+    """Joint methods of ``World``: they read and change ``self.bodies``, ``self._joints``
+    (``JointSet``), ``self._excluded`` (p, 2) and the joint stages' impulses, and plan the
+    step again after a change."""
+
+    def add_joint(
+        self, kind: str, body_a: int, body_b: int | None, anchor, axis=(0.0, 0.0, 1.0),
+        anchor_b=None, limits=None, motor=None, spring=None, damping: float = 0.0,
+        friction: float = 0.0, collide: bool = False, name: str | None = None,
+    ) -> int:  # fmt: skip
+        """Join two bodies (or a body and the world) and return the joint's index.
+
+        Parameters
+        ----------
+        kind : {"spherical", "revolute", "fixed", "prismatic", "distance"}
+            Ball joint, hinge about ``axis``, weld, slider along ``axis``, or a rod holding
+            ``anchor`` and ``anchor_b`` at their distance now.
+        body_a : int
+        body_b : int or None
+            None joins body_a to the world.
+        anchor : (3,) array_like
+            World point where the bodies are joined, now (on body_a for a distance joint).
+        axis : (3,) array_like
+            World direction of a hinge or slider, now; need not be unit length.
+        anchor_b : (3,) array_like, optional
+            A distance joint's point on body_b (world, now).
+        limits, motor, spring, damping, friction
+            Not built yet: leave them out (a clear error says so).
+        collide : bool
+            Whether body_a and body_b still collide with each other (False by default).
+        name : str, optional
+            "joint<i>" by default.
+
+        Notes
+        -----
+        The joint holds the bodies as they are now: its position (a hinge's angle, a
+        slider's travel) is zero now and counts body_a's motion relative to body_b about /
+        along +axis, right-handed. Jointed bodies are integrated by symplectic Euler and
+        held together at the end of every step (``dynamics.joint_solver``).
+        """
+        index = self._joints.add(
+            kind, body_a, body_b, anchor, axis, anchor_b, collide, name, self.bodies,
+            {"limits": limits, "motor": motor, "spring": spring, "damping": damping,
+             "friction": friction},
+        )  # fmt: skip
+        joined = self._joints.ints[index, BODY_A : BODY_B + 1]
+        self._sleep.wake(joined[joined >= 0])
+        self._plan_stages()
+        return index
+
+    def exclude_pair(self, body_a: int, body_b: int) -> None:
+        """Never let these two bodies collide with each other."""
+        a, b = self._check_body(body_a), self._check_body(body_b)
+        if a == b:
+            raise ValueError(f"exclude_pair needs two different bodies, got {a} twice")
+        self._excluded = np.vstack([self._excluded, [min(a, b), max(a, b)]])
+        self._plan_stages()
+
+    @property
+    def joints(self) -> dict:
+        """What each joint is doing now, and did over the last step.
+
+        Keys (m joints): ``name`` (list of str); ``kind`` (m,) str; ``body_a``, ``body_b``
+        (m,) int64 (-1: the world); ``position`` and ``velocity`` (m,): a revolute joint's
+        angle (rad, in (-pi, pi]) and rate, a prismatic joint's travel (m) and speed, a
+        distance joint's length and rate (0 for the other kinds); ``gap`` (m,) how far the
+        anchors are from where the joint holds them (m); ``angle_error`` (m,) how far the
+        orientation is from what it holds (rad); ``force`` and ``torque`` (m, 3): what body_b
+        (or the world) exerted on body_a over the last step, at the anchor, world frame (N,
+        N m; the impulse of the step's projection over dt).
+        """
+        joints, b = self._joints, self.bodies
+        ints = joints.ints
+        v = b.linear_momentum * b.inverse_mass[:, None]
+        R = quat_to_matrix(b.orientation).reshape(-1, 3, 3)
+        L_body = np.einsum("nji,nj->ni", R, b.angular_momentum)
+        w = np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", b.inverse_inertia_body, L_body))
+        readout = read_joints(ints, joints.floats, b.position, b.orientation, v, w)
+        impulse = self._joint_impulse[: len(joints)] / self.dt
+        arm = quat_rotate(b.orientation[ints[:, BODY_A]], joints.floats[:, ARM_A : ARM_A + 3])
+        force = impulse[:, :3]
+        return {
+            "name": list(joints.names),
+            "kind": _KIND_NAMES[ints[:, KIND]],
+            "body_a": ints[:, BODY_A].copy(),
+            "body_b": ints[:, BODY_B].copy(),
+            "position": readout[:, 0],
+            "velocity": readout[:, 1],
+            "gap": readout[:, 2],
+            "angle_error": readout[:, 3],
+            "force": force.copy(),
+            "torque": impulse[:, 3:] - np.cross(arm.reshape(-1, 3), force),
+        }

@@ -1,0 +1,399 @@
+"""Joints against analytic answers and the oracles of reference_joints.py.
+
+Gaps and angle errors are the maximum over the whole run, first step included, as the
+campaign measures them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.special import ellipk
+
+import thesis_rbd as rbd
+from tests import reference_joints as ref
+from thesis_rbd.dynamics.joint_rows import joint_rows
+from thesis_rbd.dynamics.joint_set import JOINT_KINDS
+from thesis_rbd.dynamics.joint_solver import _factor, _solve
+
+G = 9.81
+
+
+def _ball(radius=0.02):
+    return rbd.shapes.icosphere(radius, 3)
+
+
+def _pendulum(degrees, dt=1 / 240, kind="revolute"):
+    """A 1 kg ball of radius 2 cm, its centre 1 m from a hinge at the origin about +y,
+    released at ``degrees`` from hanging."""
+    world = rbd.World(dt=dt, gravity=(0, 0, -G))
+    theta = np.radians(degrees)
+    body = world.add_body(_ball(), mass=1.0, position=(np.sin(theta), 0, -np.cos(theta)))
+    world.add_joint(kind, body, None, anchor=(0, 0, 0), axis=(0, 1, 0))
+    return world, body
+
+
+def _poses(world):
+    b = world.bodies
+    return [ref.pose(x, q) for x, q in zip(b.position, b.orientation, strict=True)]
+
+
+def _run_max(world, steps, key):
+    """Largest ``world.joints[key]`` over ``steps`` steps, each step read."""
+    worst = 0.0
+    for _ in range(steps):
+        world.step()
+        worst = max(worst, float(np.max(world.joints[key])))
+    return worst
+
+
+# ----------------------------------------------------------------------------- the pendulum
+@pytest.mark.parametrize("degrees", [90, 150, 170])
+def test_pendulum_keeps_the_exact_period_and_amplitude(degrees):
+    """Mean of all full periods over 30 s within 0.01 % of the compound pendulum's exact
+    period, amplitude kept to 99.9 %, hinge gap <= 1e-6 m at every step."""
+    world, body = _pendulum(degrees)
+    inertia = world.bodies.inertia_body[body][1, 1] + 1.0  # about the pivot
+    theta0 = np.radians(degrees)
+    exact = 4.0 * np.sqrt(inertia / G) * ellipk(np.sin(theta0 / 2) ** 2)
+    steps = 30 * 240
+    angle, times, gap = np.empty(steps), np.empty(steps), 0.0
+    creation = _poses(world)[body]
+    for k in range(steps):
+        world.step()
+        x, R = _poses(world)[body]
+        angle[k] = np.arctan2(x[0], -x[2])
+        times[k] = world.time
+        # the oracle: the ball's attachment point carried to now, against the hinge
+        gap = max(gap, np.linalg.norm(ref.attached((0, 0, 0), creation, (x, R))))
+    up = np.flatnonzero((angle[:-1] < 0) & (angle[1:] >= 0))
+    crossings = times[up] + (times[up + 1] - times[up]) * -angle[up] / (angle[up + 1] - angle[up])
+    period = np.diff(crossings).mean()
+    assert abs(period / exact - 1.0) <= 1e-4
+    assert np.abs(angle).max() >= 0.999 * theta0
+    assert np.abs(angle).max() <= theta0 * (1 + 1e-3)
+    assert gap <= 1e-6
+
+
+def test_hanging_pendulum_reports_its_weight_and_angle():
+    """At rest, the world holds the ball up with its weight (force on a at the anchor, torque
+    about the anchor zero); turning the ball about +axis reads a positive angle."""
+    world = rbd.World(gravity=(0, 0, -G))
+    body = world.add_body(_ball(), mass=2.0, position=(0, 0, -1))
+    world.add_joint("revolute", body, None, anchor=(0, 0, 0), axis=(0, 1, 0))
+    world.step(10)
+    j = world.joints
+    np.testing.assert_allclose(j["force"][0], (0, 0, 2.0 * G), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(j["torque"][0], 0.0, atol=1e-9)
+    assert abs(j["position"][0]) < 1e-12
+    # released at +x, the ball swings back towards hanging: about +y (which turns -z
+    # towards -x), so its angle grows
+    world2, ball = _pendulum(20)
+    creation = _poses(world2)
+    world2.step(5)
+    now = _poses(world2)
+    world_pose = ref.pose((0, 0, 0), (0, 0, 0, 1))
+    expected = ref.hinge_angle((0, 1, 0), creation[ball], now[ball], world_pose, world_pose)
+    assert world2.joints["position"][0] == pytest.approx(expected, abs=1e-9)
+    assert expected > 0
+
+
+# ----------------------------------------------------------------------------- every kind
+def _two_bodies(kind, seed):
+    """Two boxes jointed at a point between them, flying and spinning with random velocities
+    in zero gravity."""
+    rng = np.random.default_rng(seed)
+    world = rbd.World(dt=1 / 240)
+    a = world.add_body(rbd.shapes.box((0.4, 0.2, 0.1)), mass=1.0, position=(-0.25, 0, 0))
+    b = world.add_body(rbd.shapes.box((0.3, 0.3, 0.2)), mass=3.0, position=(0.2, 0, 0))
+    anchor = rng.uniform(-0.05, 0.05, 3)
+    axis = rng.normal(size=3)
+    anchor_b = anchor + (0.1, 0.02, 0.0) if kind == "distance" else None
+    world.add_joint(kind, a, b, anchor=anchor, axis=axis, anchor_b=anchor_b)
+    for body in (a, b):
+        world.bodies.linear_momentum[body] = rng.normal(size=3)
+        world.bodies.angular_momentum[body] = 0.1 * rng.normal(size=3)
+    return world, anchor, axis / np.linalg.norm(axis), anchor_b
+
+
+def _momenta(world):
+    b = world.bodies
+    linear = b.linear_momentum.sum(axis=0)
+    angular = (np.cross(b.position, b.linear_momentum) + b.angular_momentum).sum(axis=0)
+    return linear, angular
+
+
+@pytest.mark.parametrize("kind", list(JOINT_KINDS))
+def test_every_kind_holds_and_conserves_momentum(kind):
+    """Two jointed bodies thrown spinning: the joint holds (oracle: the creation anchors and
+    axes carried by each body), and the total linear and angular momentum stay to 1e-12."""
+    world, anchor, axis, anchor_b = _two_bodies(kind, seed=JOINT_KINDS[kind])
+    creation = _poses(world)
+    linear0, angular0 = _momenta(world)
+    scale = max(np.abs(linear0).max(), np.abs(angular0).max())
+    gap = angle = 0.0
+    for _ in range(480):
+        world.step()
+        now = _poses(world)
+        a0, a1, b0, b1 = creation[0], now[0], creation[1], now[1]
+        if kind == "distance":
+            length = np.linalg.norm(np.asarray(anchor) - anchor_b)
+            offset = ref.anchor_offset(anchor, a0, a1, b0, b1, anchor_b)
+            gap = max(gap, abs(np.linalg.norm(offset) - length))
+        elif kind == "prismatic":
+            gap = max(gap, ref.off_line(anchor, axis, a0, a1, b0, b1))
+        else:
+            gap = max(gap, np.linalg.norm(ref.anchor_offset(anchor, a0, a1, b0, b1)))
+        if kind == "revolute":
+            angle = max(angle, ref.axis_misalignment(axis, a0, a1, b0, b1))
+        elif kind in ("fixed", "prismatic"):
+            angle = max(angle, ref.relative_rotation_angle(a0, a1, b0, b1))
+    linear, angular = _momenta(world)
+    assert gap <= 1e-10
+    assert angle <= 1e-10
+    np.testing.assert_allclose(linear, linear0, atol=1e-12 * scale)
+    np.testing.assert_allclose(angular, angular0, atol=1e-12 * scale)
+    # the readout agrees with the oracle's last values
+    assert world.joints["gap"][0] <= 1e-10
+    assert world.joints["angle_error"][0] <= 1e-10
+
+
+def test_free_degrees_stay_free():
+    """A hinge leaves the spin about its axis alone, a slider the motion along its axis: a
+    body jointed to the world, spun about / pushed along the axis in zero gravity, keeps its
+    speed and the joint reads position = rate * t (the hinge to the phase error of the free
+    rotation's Cayley step, (h w)^2 / 12 of the angle)."""
+    world = rbd.World(dt=1 / 240)
+    wheel = world.add_body(rbd.shapes.cylinder(0.3, 0.1), mass=2.0, position=(0, 0, 0))
+    world.add_joint("revolute", wheel, None, anchor=(0, 0, 0), axis=(0, 0, 1))
+    slider = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), mass=1.0, position=(2, 0, 0))
+    world.add_joint("prismatic", slider, None, anchor=(2, 0, 0), axis=(1, 1, 0))
+    world.bodies.angular_momentum[wheel] = world.bodies.inertia_body[wheel][2, 2] * np.array(
+        [0, 0, 3.0]
+    )
+    world.bodies.linear_momentum[slider] = np.array([0.5, 0.5, 0.0])
+    world.step(120)
+    j = world.joints
+    t = world.time
+    assert j["velocity"][0] == pytest.approx(3.0, rel=1e-12)
+    cayley = (3.0 / 240) ** 2 / 12
+    assert j["position"][0] == pytest.approx(np.angle(np.exp(1j * 3.0 * t)), rel=1.01 * cayley)
+    assert j["velocity"][1] == pytest.approx(np.sqrt(0.5), rel=1e-12)
+    assert j["position"][1] == pytest.approx(np.sqrt(0.5) * t, rel=1e-9)
+
+
+def test_slider_under_gravity_falls_along_its_axis():
+    """A slider inclined at 30 deg: travel 1/2 g sin(30) t^2 to symplectic Euler's first-order
+    error (g h t / 2 of the travel per second), and no motion across its line."""
+    dt = 1 / 240
+    world = rbd.World(dt=dt, gravity=(0, 0, -G))
+    body = world.add_body(rbd.shapes.box((0.1, 0.1, 0.1)), mass=1.0)
+    c, s = np.cos(np.radians(30)), np.sin(np.radians(30))
+    world.add_joint("prismatic", body, None, anchor=(0, 0, 0), axis=(-c, 0, -s))
+    world.step(240)
+    t = world.time
+    a = G * s
+    travel = world.joints["position"][0]
+    assert abs(travel - 0.5 * a * t * t) <= 0.5 * a * dt * t * 1.01
+    assert world.joints["gap"][0] <= 1e-12
+
+
+# ----------------------------------------------------------------------------- chains
+def _chain(links, link_mass, bob_mass, horizontal, substeps="auto", kind="spherical"):
+    """``links`` rods of 0.1 m from a hinge at the origin and a ball of radius 3 cm at the
+    end, hanging down or held out along +x."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -G), joint_substeps=substeps)
+    length = 0.1
+    direction = np.array([1.0, 0, 0]) if horizontal else np.array([0, 0, -1.0])
+    extents = (length, 0.01, 0.01) if horizontal else (0.01, 0.01, length)
+    rod = rbd.shapes.box(extents)
+    previous = None
+    for i in range(links):
+        body = world.add_body(rod, mass=link_mass, position=(i + 0.5) * length * direction)
+        world.add_joint(kind, body, previous, anchor=i * length * direction, axis=(0, 1, 0))
+        previous = body
+    bob = world.add_body(_ball(0.03), mass=bob_mass, position=(links * length + 0.03) * direction)
+    world.add_joint(kind, bob, previous, anchor=links * length * direction, axis=(0, 1, 0))
+    return world
+
+
+@pytest.mark.parametrize(
+    ("bob_mass", "horizontal", "bound"),
+    [(10.0, False, 1e-5), (0.1, False, 1e-5), (10.0, True, 1e-3)],
+    ids=["1:100 at rest", "equal masses at rest", "1:100 swung from horizontal"],
+)
+def test_light_chain_with_a_heavy_bob_does_not_stretch(bob_mass, horizontal, bound):
+    """Ten 0.1 kg links of 0.1 m and a bob: gap <= 0.01 mm at rest, <= 1 mm swung."""
+    world = _chain(10, 0.1, bob_mass, horizontal)
+    assert _run_max(world, 480, "gap") <= bound
+
+
+def test_fixed_substeps_that_cannot_resolve_the_chain_fail_loudly():
+    """One substep cannot follow a 1:100 chain swung from horizontal (h w > 1): the step
+    raises with the world left as before it, instead of drifting apart."""
+    world = _chain(10, 0.1, 10.0, True, substeps=1)
+    with pytest.raises(rbd.NonFiniteStateError):
+        world.step(480)
+
+
+# ----------------------------------------------------------------------------- kernels
+def _quaternion(data):
+    q = np.array(data.draw(st.lists(st.floats(-1, 1), min_size=4, max_size=4)))
+    if np.linalg.norm(q) < 0.1:
+        q = np.array([0.0, 0.0, 0.0, 1.0])
+    return q / np.linalg.norm(q)
+
+
+@settings(max_examples=40)
+@given(st.sampled_from(list(JOINT_KINDS)), st.data())
+def test_row_jacobians_match_finite_differences(kind, data):
+    """Each row's (lin, ang_a, ang_b) is the derivative of its error under small motions of
+    either body (central differences, world-frame rotations), at poses away from creation."""
+    world = rbd.World()
+    a = world.add_body(rbd.shapes.box((0.4, 0.2, 0.1)), position=(-0.25, 0, 0))
+    b = world.add_body(rbd.shapes.box((0.3, 0.3, 0.2)), position=(0.2, 0, 0))
+    anchor_b = (0.1, 0.05, 0.0) if kind == "distance" else None
+    world.add_joint(kind, a, b, anchor=(0, 0, 0), axis=(0.3, 0.4, 1.0), anchor_b=anchor_b)
+    f = world._joints.floats[0]
+    code = JOINT_KINDS[kind]
+    xa = tuple(data.draw(st.lists(st.floats(-0.5, 0.5), min_size=3, max_size=3)))
+    xb = tuple(data.draw(st.lists(st.floats(-0.5, 0.5), min_size=3, max_size=3)))
+    qa, qb = tuple(_quaternion(data)), tuple(_quaternion(data))
+    rows = np.zeros((6, 10))
+    n = joint_rows(code, f, xa, qa, xb, qb, rows, 0)
+
+    def errors(xa, qa, xb, qb):
+        out = np.zeros((6, 10))
+        joint_rows(code, f, tuple(xa), tuple(qa), tuple(xb), tuple(qb), out, 0)
+        return out[:n, 9]
+
+    def turned(q, v):
+        from scipy.spatial.transform import Rotation
+
+        return (Rotation.from_rotvec(v) * Rotation.from_quat(q)).as_quat()
+
+    eps = 1e-6
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = eps
+        d_xa = (errors(np.add(xa, e), qa, xb, qb) - errors(np.subtract(xa, e), qa, xb, qb)) / (
+            2 * eps
+        )
+        d_ta = (errors(xa, turned(qa, e), xb, qb) - errors(xa, turned(qa, -e), xb, qb)) / (2 * eps)
+        d_xb = (errors(xa, qa, np.add(xb, e), qb) - errors(xa, qa, np.subtract(xb, e), qb)) / (
+            2 * eps
+        )
+        d_tb = (errors(xa, qa, xb, turned(qb, e)) - errors(xa, qa, xb, turned(qb, -e))) / (2 * eps)
+        np.testing.assert_allclose(rows[:n, k], d_xa, atol=1e-6)
+        np.testing.assert_allclose(-rows[:n, k], d_xb, atol=1e-6)
+        if kind in ("fixed", "prismatic"):
+            # the orientation rows' Jacobian is the identity at zero error; away from it the
+            # Newton step only needs it close (the error is a rotation vector)
+            continue
+        np.testing.assert_allclose(rows[:n, 3 + k], d_ta, atol=1e-6)
+        np.testing.assert_allclose(rows[:n, 6 + k], d_tb, atol=1e-6)
+
+
+@settings(max_examples=30)
+@given(st.integers(2, 12), st.integers(0, 3), st.integers(0, 2**32 - 1))
+def test_factor_drops_redundant_rows_and_solves_the_rest(size, redundant, seed):
+    """The L U with dropped pivots solves a consistent system whose matrix repeats some rows
+    (a closed loop's redundant constraints) to round-off, against numpy's least squares."""
+    rng = np.random.default_rng(seed)
+    J = rng.normal(size=(size, 3 * size))
+    for r in range(min(redundant, size - 1)):
+        J[size - 1 - r] = J[r] * rng.uniform(0.5, 2.0) + J[(r + 1) % (size - 1)]
+    K = J @ J.T
+    rhs = K @ rng.normal(size=size)  # consistent
+    factor = K.copy()
+    kept = _factor(factor)
+    x = rhs.copy()
+    _solve(factor, kept, x)
+    assert kept.sum() == np.linalg.matrix_rank(K)
+    np.testing.assert_allclose(K @ x, rhs, atol=1e-8 * np.abs(rhs).max())
+
+
+# ----------------------------------------------------------------------------- the world
+def test_jointed_bodies_do_not_collide_unless_asked():
+    """Two overlapping boxes jointed together produce no contacts; with collide=True, or
+    without the joint, they do; exclude_pair removes a pair without a joint."""
+
+    def world_with(collide=None, exclude=False):
+        world = rbd.World(dt=1 / 240)
+        a = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), position=(0, 0, 0))
+        b = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), position=(0.15, 0, 0))
+        if collide is not None:
+            world.add_joint("fixed", a, b, anchor=(0.075, 0, 0), collide=collide)
+        if exclude:
+            world.exclude_pair(a, b)
+        world.step()
+        return len(world.contacts["body_a"])
+
+    assert world_with() > 0
+    assert world_with(collide=True) > 0
+    assert world_with(collide=False) == 0
+    assert world_with(exclude=True) == 0
+
+
+def test_a_scene_without_joints_runs_no_joint_stage():
+    world = rbd.World(gravity=(0, 0, -G))
+    world.add_body(_ball(), mass=1.0)
+    assert "joints" not in world.stages
+    world.add_joint("spherical", 0, None, anchor=(0, 0, 0.5))
+    assert world.stages == ["forces", "integrate", "joints"]
+
+
+_BAD_JOINTS = {
+    "unknown joint kind 'hinge'": dict(kind="hinge"),
+    "zero length": dict(axis=(0, 0, 0)),
+    "jointed to itself": dict(body_b=0),
+    "far from both bodies": dict(anchor=(50, 0, 0)),
+    "body_b: no body 7": dict(body_b=7),
+    "anchor holds a non-finite": dict(anchor=(0, np.nan, 0)),
+    "anchor_b apart": dict(kind="distance"),
+    "anchor_b is for distance": dict(anchor_b=(1, 0, 0)),
+    "immovable": dict(body_a=2, body_b=None),
+    "body_a must be a body index": dict(body_a=1.5),
+}
+
+
+@pytest.mark.parametrize("message", list(_BAD_JOINTS))
+def test_bad_joints_are_refused_naming_the_field(message):
+    """Each fault of add_joint's input is a ValueError naming it, and no joint is added."""
+    world = rbd.World()
+    world.add_body(rbd.shapes.box(), position=(0, 0, 0))
+    world.add_body(rbd.shapes.box(), position=(1, 0, 0))
+    world.add_body(rbd.shapes.box(), position=(0, 3, 0), static=True)
+    arguments = dict(kind="spherical", body_a=0, body_b=1, anchor=(0.5, 0, 0))
+    arguments.update(_BAD_JOINTS[message])
+    with pytest.raises(ValueError, match=message):
+        world.add_joint(**arguments)
+    assert len(world.joints["kind"]) == 0
+
+
+def test_exclude_pair_needs_two_bodies():
+    world = rbd.World()
+    world.add_body(rbd.shapes.box())
+    with pytest.raises(ValueError, match="two different bodies"):
+        world.exclude_pair(0, 0)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"limits": (0, 1)}, {"motor": {"velocity": 1.0, "max_force": 1.0}}, {"damping": 0.1}],
+)
+def test_joint_options_not_built_yet_say_so(options):
+    world = rbd.World()
+    world.add_body(rbd.shapes.box())
+    with pytest.raises(NotImplementedError, match="not built yet"):
+        world.add_joint("revolute", 0, None, anchor=(0, 0, 0), **options)
+    with pytest.raises(NotImplementedError, match="'universal' is not built yet"):
+        world.add_joint("universal", 0, None, anchor=(0, 0, 0))
+
+
+@pytest.mark.parametrize("value", [0, -1, 1.5, True, "fast", 10_000])
+def test_bad_joint_substeps_are_refused(value):
+    with pytest.raises(ValueError, match="joint_substeps"):
+        rbd.World(joint_substeps=value)
