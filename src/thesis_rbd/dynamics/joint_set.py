@@ -35,6 +35,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from thesis_rbd._validate import as_finite_array
+from thesis_rbd.dynamics.joint_tree import elimination_order, later_neighbours
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
 
 __all__ = ["JOINT_KINDS", "JointSet"]
@@ -67,12 +68,11 @@ def _perpendiculars(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return normal, np.cross(axis, normal)
 
 
-def _grouped(group, count, items=None) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of ``items`` (default: their indices) by ``group`` (values in [0, count))."""
+def _grouped(group, count, items) -> tuple[np.ndarray, np.ndarray]:
+    """CSR of ``items`` by ``group`` (values in [0, count))."""
     order = np.argsort(group, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(group, minlength=count))])
-    members = order if items is None else items[order]
-    return start.astype(np.int64), members.astype(np.int64)
+    return start.astype(np.int64), items[order].astype(np.int64)
 
 
 class JointSet:
@@ -199,14 +199,18 @@ class JointSet:
 
     def islands(self, static: np.ndarray) -> tuple[np.ndarray, ...]:
         """Joints and moving bodies grouped by the islands the joints make (static bodies and
-        the world join none).
+        the world join none), each island's joints in elimination order (``joint_tree``).
 
         Returns
         -------
         joint_start, island_joints : (k + 1,), (m,) int64
-            Island i holds the joints ``island_joints[joint_start[i]:joint_start[i + 1]]``
+            Island i holds the joints ``island_joints[joint_start[i]:joint_start[i + 1]]``,
         body_start, island_bodies : (k + 1,), (b,) int64
             and the moving bodies ``island_bodies[body_start[i]:body_start[i + 1]]``.
+        tree : (k,) bool
+            Whether island i is a tree (solved by ``joint_tree``) or has a closed loop.
+        neighbour_start, neighbour : (m + 1,), (p,) int64
+            ``joint_tree.later_neighbours`` of each joint slot.
         """
         n = len(static)
         a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]
@@ -216,14 +220,22 @@ class JointSet:
         # a joint is in the island of its moving body
         joint_island = label[np.where(static[a], np.maximum(b, 0), a)]
         islands, joint_island = np.unique(joint_island, return_inverse=True)
+        count = len(islands)
+        depth, tree = elimination_order(a, b, static, joint_island, count)
+        order = np.lexsort((-depth, joint_island))
+        joint_start = np.concatenate([[0], np.cumsum(np.bincount(joint_island, minlength=count))])
         moving = np.zeros(n, bool)
         moving[a] = True
         moving[b[b >= 0]] = True
         moving &= ~static
         bodies = np.flatnonzero(moving)
         body_island = np.searchsorted(islands, label[bodies])
-        return (*_grouped(joint_island, len(islands)), *_grouped(body_island, len(islands),
-                                                                 bodies))  # fmt: skip
+        body_start, island_bodies = _grouped(body_island, count, bodies)
+        neighbour_start, neighbour = later_neighbours(a, b, static, order, joint_start)
+        return (
+            joint_start.astype(np.int64), order.astype(np.int64), body_start, island_bodies,
+            tree, neighbour_start, neighbour,
+        )  # fmt: skip
 
     def excluded_pairs(self) -> np.ndarray:
         """(p, 2) int64 body pairs (low, high) that must not collide: jointed, collide=False."""

@@ -34,6 +34,7 @@ from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, joint_rows
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
+from thesis_rbd.dynamics.joint_tree import factor_tree, solve_tree
 from thesis_rbd.spatial.quaternion import conjugate, normalize, rotate
 
 __all__ = [
@@ -61,9 +62,10 @@ _REDUNDANT = 1e-10
 @njit
 def step_jointed_bodies(
     substeps, dt, count, frozen, solved, ints, floats, joint_start, island_joints, body_start,
-    island_bodies, substep_position, substep_orientation, position, orientation,
-    linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, external_force,
-    drag, pf_start, pf_arm, pf_force, save_start, start_position, start_orientation, impulse,
+    island_bodies, island_tree, neighbour_start, neighbour, substep_position,
+    substep_orientation, position, orientation, linear_momentum, angular_momentum,
+    inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+    save_start, start_position, start_orientation, impulse,
 ):  # fmt: skip
     """Move the jointed bodies over the step, island by island (module docstring), in place.
 
@@ -76,8 +78,9 @@ def step_jointed_bodies(
         Static or asleep; momenta already final (set by the contact stage).
     ints, floats : (m, 3) int64, (m, JOINT_FLOATS) float64
         ``JointSet`` arrays.
-    joint_start, island_joints, body_start, island_bodies : int64 arrays
-        The joints and moving bodies of each island (``JointSet.islands``).
+    joint_start, island_joints, body_start, island_bodies, island_tree, neighbour_start, neighbour
+        The joints and moving bodies of each island, and how its Newton matrix is solved
+        (``JointSet.islands``).
     substep_position, substep_orientation : (>= n, 3), (>= n, 4) float64
         Scratch: where each jointed body began the substep.
     save_start, start_position, start_orientation
@@ -118,8 +121,10 @@ def step_jointed_bodies(
                     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
                     external_force, drag, pf_start, pf_arm, pf_force,
                 )  # fmt: skip
+            first, last = joint_start[island], joint_start[island + 1]
             project_island(
-                h, joints, ints, floats, frozen, substep_position, substep_orientation,
+                h, joints, island_tree[island], neighbour_start[first : last + 1], neighbour,
+                ints, floats, frozen, substep_position, substep_orientation,
                 position, orientation, linear_momentum, angular_momentum, inverse_mass,
                 inverse_inertia_body, impulse,
             )  # fmt: skip
@@ -254,8 +259,9 @@ def _solve(K, kept, x):
 
 @njit
 def project_island(
-    dt, joints, ints, floats, frozen, saved_position, saved_orientation, position, orientation,
-    linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, impulse,
+    dt, joints, tree, neighbour_start, neighbour, ints, floats, frozen, saved_position,
+    saved_orientation, position, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, impulse,
 ):  # fmt: skip
     """Hold the ``joints`` of one island at the end of a substep of length dt (module
     docstring), in place.
@@ -266,7 +272,11 @@ def project_island(
     ints, floats : (m, 3) int64, (m, JOINT_FLOATS) float64
         ``JointSet`` arrays.
     joints : (j,) int64
-        The island's joints.
+        The island's joints, in elimination order.
+    tree, neighbour_start, neighbour
+        Whether the island is a tree, and then its joints' later neighbours (the slices of
+        ``JointSet.islands``'s arrays for these joints: j + 1 starts, counted from any base):
+        a tree is solved by ``joint_tree`` in time linear in its joints, a loop densely.
     frozen : (>= n,) bool
         Static or asleep bodies: immovable here.
     saved_position, saved_orientation : (>= n, 3), (>= n, 4) float64
@@ -304,7 +314,8 @@ def project_island(
             for c in range(3):
                 moved[k, 6 * side + c] = sign * im * rows[k, c]
                 moved[k, 6 * side + 3 + c] = turn[c]
-    K = np.empty((size, size))
+    layout = _tree_layout(joints, ints, neighbour_start, neighbour, tree)
+    K = np.empty((0, 0)) if tree else np.empty((size, size))
     current = np.empty((size, 10))
     step = np.empty(size)
     for _ in range(JOINT_ITERATIONS):
@@ -320,11 +331,14 @@ def project_island(
         if worst <= _TOLERANCE:
             break
         # Newton on the impulses: how the errors now change along the start directions
-        for i in range(size):
-            for k in range(size):
-                K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
-        kept = _factor(K)
-        _solve(K, kept, step)
+        if tree:
+            _tree_solve(layout, ints, row_joint, current, moved, step)
+        else:
+            for i in range(size):
+                for k in range(size):
+                    K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
+            kept = _factor(K)
+            _solve(K, kept, step)
         for k in range(size):
             lam = step[k]
             j = row_joint[k]
@@ -353,6 +367,49 @@ def project_island(
             for c in range(3):
                 impulse[j, c] += rows[k, c] * lam / h
                 impulse[j, 3 + c] += rows[k, 3 + c] * lam / h
+
+
+@njit
+def _tree_layout(joints, ints, neighbour_start, neighbour, tree):
+    """The block layout of ``joint_tree`` for an island (empty unless ``tree``): rows and
+    row starts per joint, slots, each slot's neighbour, and the block and mask storage."""
+    p = len(joints) if tree else 0
+    rows = np.empty(p, np.int64)
+    row_start = np.empty(p + 1, np.int64)
+    self_slot = np.empty(p + 1, np.int64)
+    slots = p + (neighbour_start[p] - neighbour_start[0] if tree else 0)
+    slot_neighbour = np.full(slots, -1, np.int64)
+    row_start[0] = 0
+    self_slot[0] = 0
+    for e in range(p):
+        rows[e] = ROWS_OF_KIND[ints[joints[e], KIND]]
+        row_start[e + 1] = row_start[e] + rows[e]
+        later = neighbour_start[e + 1] - neighbour_start[e]
+        for k in range(later):
+            slot_neighbour[self_slot[e] + 1 + k] = neighbour[
+                neighbour_start[e] - neighbour_start[0] + k
+            ]
+        self_slot[e + 1] = self_slot[e] + 1 + later
+    upper = np.zeros((slots, 6, 6))
+    lower = np.zeros((slots, 6, 6))
+    kept = np.zeros((p, 6), np.bool_)
+    return rows, row_start, self_slot, slot_neighbour, upper, lower, kept
+
+
+@njit
+def _tree_solve(layout, ints, row_joint, current, moved, step):
+    """Solve (J_now M^-1 J_start^T) x = step in place through ``joint_tree``."""
+    rows, row_start, self_slot, slot_neighbour, upper, lower, kept = layout
+    for e in range(len(rows)):
+        for s in range(self_slot[e], self_slot[e + 1]):
+            f = e if s == self_slot[e] else slot_neighbour[s]
+            for i in range(rows[e]):
+                for k in range(rows[f]):
+                    ri, rk = row_start[e] + i, row_start[f] + k
+                    upper[s, i, k] = _coupling(ints, row_joint, current, moved, ri, rk)
+                    lower[s, k, i] = _coupling(ints, row_joint, current, moved, rk, ri)
+    factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
+    solve_tree(rows, row_start, self_slot, slot_neighbour, upper, lower, kept, step)
 
 
 @njit
