@@ -4,7 +4,9 @@ A scene file has optional top-level keys ``description``, ``seconds`` (the defau
 length) and ``record_contacts`` (whether runs record contact points by default), a
 ``[world]`` table with the arguments of :class:`~thesis_rbd.World`, and one ``[[body]]``
 table per body with the arguments of :meth:`~thesis_rbd.World.add_body`, a
-``shape`` table, and optional ``[[body.force]]`` tables for :meth:`~thesis_rbd.World.apply_force`::
+``shape`` table, and optional ``[[body.force]]`` tables for :meth:`~thesis_rbd.World.apply_force`,
+and one ``[[joint]]`` table per joint with the arguments of
+:meth:`~thesis_rbd.World.add_joint` (bodies by name; no ``body_b``: the world)::
 
     description = "A box pushed for one second"
     seconds = 3.0
@@ -25,6 +27,12 @@ table per body with the arguments of :meth:`~thesis_rbd.World.add_body`, a
     force = [2.0, 0.0, 0.0]
     duration = 1.0
 
+    [[joint]]
+    kind = "revolute"
+    body_a = "box"
+    anchor = [0.0, 0.0, 1.5]
+    axis = [0.0, 1.0, 0.0]
+
 Shapes: ``box`` (extents), ``icosphere`` (radius, subdivisions), ``cylinder`` (radius, height,
 sections), ``torus`` (major_radius, minor_radius, major_sections, minor_sections) with the
 defaults of :mod:`thesis_rbd.shapes`, and ``mesh`` (path, relative to the scene file; optional
@@ -32,7 +40,8 @@ scale) for any file trimesh reads (OBJ, STL, PLY, glTF, ...).
 
 Everything is checked when the scene is loaded: TOML syntax, unknown keys (with a suggestion),
 types, ranges, shape parameters, mesh files. A fault raises :class:`SceneError` whose message
-names the file, the table (``[world]``, ``body[2] 'lid'``, ``body[2] 'lid' force[0]``), the
+names the file, the table (``[world]``, ``body[2] 'lid'``, ``body[2] 'lid' force[0]``,
+``joint[0]``), the
 field and the value.
 """
 
@@ -54,7 +63,15 @@ from thesis_rbd.geometry import shapes
 from thesis_rbd.geometry.mesh import TriangleMesh, load_mesh
 from thesis_rbd.world import World
 
-__all__ = ["BodySpec", "ForceSpec", "Scene", "SceneError", "load_scene", "parse_scene"]
+__all__ = [
+    "BodySpec",
+    "ForceSpec",
+    "JointSpec",
+    "Scene",
+    "SceneError",
+    "load_scene",
+    "parse_scene",
+]
 
 DEFAULT_SECONDS = 5.0
 
@@ -127,6 +144,32 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class JointSpec:
+    """One ``[[joint]]`` table: the arguments of :meth:`World.add_joint`, bodies by index.
+
+    Attributes
+    ----------
+    kind : str
+    body_a : int
+    body_b : int or None
+        None: the world.
+    anchor, axis : (3,) float ndarray
+    anchor_b : (3,) float ndarray or None
+    collide : bool
+    name : str or None
+    """
+
+    kind: str
+    body_a: int
+    body_b: int | None
+    anchor: np.ndarray
+    axis: np.ndarray
+    anchor_b: np.ndarray | None
+    collide: bool
+    name: str | None
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene, ready to build worlds from.
 
@@ -145,9 +188,10 @@ class Scene:
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
         contact_solver, contact_iterations, friction_sides, penetration, sleeping,
-        narrow_phase.
+        narrow_phase, and joint_substeps.
     bodies : tuple of BodySpec
         In world index order.
+    joints : tuple of JointSpec
     source : str
         Where the scene came from (a path), used in messages.
     """
@@ -159,6 +203,7 @@ class Scene:
     bodies: tuple[BodySpec, ...]
     source: str
     record_contacts: bool = False
+    joints: tuple[JointSpec, ...] = ()
 
     @property
     def summary(self) -> str:
@@ -188,6 +233,15 @@ class Scene:
                     world.apply_force(handle, force.force, force.point, force.duration)
             except ValueError as exc:
                 raise SceneError(f"{self.source}: {where}: {exc}") from exc
+        for index, joint in enumerate(self.joints):
+            try:
+                world.add_joint(
+                    joint.kind, joint.body_a, joint.body_b, anchor=joint.anchor,
+                    axis=joint.axis, anchor_b=joint.anchor_b, collide=joint.collide,
+                    name=joint.name,
+                )  # fmt: skip
+            except (ValueError, NotImplementedError) as exc:
+                raise SceneError(f"{self.source}: joint[{index}]: {exc}") from exc
         return world
 
     def with_world(self, **settings) -> Scene:
@@ -252,7 +306,9 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from exc
     top = _Context(source, "top level")
-    _check_keys(document, ("description", "seconds", "record_contacts", "world", "body"), top)
+    _check_keys(
+        document, ("description", "seconds", "record_contacts", "world", "body", "joint"), top
+    )
     description = _optional(document, "description", "", _as_string, top)
     seconds = _optional(document, "seconds", DEFAULT_SECONDS, _positive_number, top)
     record_contacts = _optional(document, "record_contacts", False, _as_bool, top)
@@ -276,6 +332,15 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
                 f"by body[{seen[body.name]}]; body names must be unique"
             )
         seen[body.name] = index
+    joint_tables = document.get("joint", [])
+    if not isinstance(joint_tables, list):
+        raise SceneError(
+            f"{source}: top level: 'joint' must be [[joint]] tables, got {joint_tables!r}"
+        )
+    joints = tuple(
+        _parse_joint(table, _Context(source, f"joint[{index}]"), seen)
+        for index, table in enumerate(joint_tables)
+    )
     return Scene(
         name=name,
         description=description,
@@ -284,6 +349,7 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
         bodies=tuple(bodies),
         source=source,
         record_contacts=record_contacts,
+        joints=joints,
     )
 
 
@@ -302,6 +368,7 @@ _WORLD_KEYS = (
     "penetration",
     "sleeping",
     "narrow_phase",
+    "joint_substeps",
 )
 # keys of earlier versions, refused with the reason
 _REMOVED_WORLD_KEYS = {
@@ -318,6 +385,7 @@ _CONTACT_CHECKS = {
     "penetration": lambda v, w: _as_string(v, w),
     "sleeping": lambda v, w: _as_bool(v, w),
     "narrow_phase": lambda v, w: _as_string(v, w),
+    "joint_substeps": lambda v, w: v if v == "auto" else _integer(v, w),
 }
 
 
@@ -425,6 +493,37 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
         friction=_optional(table, "friction", 0.0, _non_negative_number, where),
         static=static,
         forces=forces,
+    )
+
+
+_JOINT_KEYS = ("kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name")
+
+
+def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
+    """A ``[[joint]]`` table; ``body_index`` maps body names to indices."""
+    table = _as_table(table, where, None)
+    _check_keys(table, _JOINT_KEYS, where)
+    for key, example in (("kind", 'kind = "revolute"'), ("body_a", 'body_a = "door"'),
+                         ("anchor", "anchor = [0.0, 0.0, 1.0]")):  # fmt: skip
+        if key not in table:
+            where.fail(f"missing {key!r}, e.g. {example}")
+
+    def body(key):
+        name = _as_string(table[key], where.field(key))
+        if name not in body_index:
+            where.field(key).fail(f"no body named {name!r}{_suggestion(name, body_index)}")
+        return body_index[name]
+
+    anchor_b = _optional(table, "anchor_b", None, _vector3, where)
+    return JointSpec(
+        kind=_as_string(table["kind"], where.field("kind")),
+        body_a=body("body_a"),
+        body_b=body("body_b") if "body_b" in table else None,
+        anchor=np.asarray(_vector3(table["anchor"], where.field("anchor"))),
+        axis=np.asarray(_optional(table, "axis", (0, 0, 1), _vector3, where)),
+        anchor_b=None if anchor_b is None else np.asarray(anchor_b),
+        collide=_optional(table, "collide", False, _as_bool, where),
+        name=_optional(table, "name", None, _as_string, where),
     )
 
 
