@@ -271,11 +271,11 @@ def test_row_jacobians_match_finite_differences(kind, data):
     xb = tuple(data.draw(st.lists(st.floats(-0.5, 0.5), min_size=3, max_size=3)))
     qa, qb = tuple(_quaternion(data)), tuple(_quaternion(data))
     rows = np.zeros((6, 10))
-    n = joint_rows(code, f, xa, qa, xb, qb, rows, 0)
+    n = joint_rows(code, f, xa, qa, xb, qb, rows, 0, False)
 
     def errors(xa, qa, xb, qb):
         out = np.zeros((6, 10))
-        joint_rows(code, f, tuple(xa), tuple(qa), tuple(xb), tuple(qb), out, 0)
+        joint_rows(code, f, tuple(xa), tuple(qa), tuple(xb), tuple(qb), out, 0, False)
         return out[:n, 9]
 
     def turned(q, v):
@@ -365,6 +365,10 @@ _BAD_JOINTS = {
     "anchor_b is for distance": dict(anchor_b=(1, 0, 0)),
     "immovable": dict(body_a=2, body_b=None),
     "body_a must be a body index": dict(body_a=1.5),
+    "limits out of order": dict(kind="revolute", limits=(1.0, -1.0)),
+    "lie in \\[-pi, pi\\]": dict(kind="revolute", limits=(-4.0, 0.0)),
+    "limits must be \\(lower, upper\\)": dict(kind="prismatic", limits=(1.0,)),
+    "limits must be numbers": dict(kind="prismatic", limits=(np.nan, 1.0)),
 }
 
 
@@ -391,7 +395,7 @@ def test_exclude_pair_needs_two_bodies():
 
 @pytest.mark.parametrize(
     "options",
-    [{"limits": (0, 1)}, {"motor": {"velocity": 1.0, "max_force": 1.0}}, {"damping": 0.1}],
+    [{"motor": {"velocity": 1.0, "max_force": 1.0}}, {"damping": 0.1}, {"spring": {}}],
 )
 def test_joint_options_not_built_yet_say_so(options):
     world = rbd.World()
@@ -533,3 +537,49 @@ def test_built_in_jointed_scenes_hold_their_joints(name):
     """Each built-in jointed scene runs a second with every joint held to 1e-9 m."""
     world = rbd.scenes.get(name).build()
     assert _run_max(world, 240, "gap") <= 1e-9
+
+
+# ----------------------------------------------------------------------------- limits
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_hinge_limit_stops_the_swing_without_overshoot(side):
+    """A 1 kg ball 0.8 m from a hinge, released horizontal, limit 70 deg below: overshoot
+    <= 0.6 deg at every step, and at rest within 0.01 deg of the limit (mirrored: the
+    lower limit of a swing the other way)."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -G))
+    ball = world.add_body(_ball(), mass=1.0, position=(0.8 * side, 0, 0))
+    limit = np.radians(70)
+    limits = (-np.inf, limit) if side > 0 else (-limit, np.inf)
+    world.add_joint("revolute", ball, None, anchor=(0, 0, 0), axis=(0, 1, 0), limits=limits)
+    creation = _poses(world)[ball]
+    world_pose = ref.pose((0, 0, 0), (0, 0, 0, 1))
+    overshoot = 0.0
+    for _ in range(3 * 240):
+        world.step()
+        angle = side * ref.hinge_angle((0, 1, 0), creation, _poses(world)[ball], world_pose,
+                                       world_pose)  # fmt: skip
+        overshoot = max(overshoot, angle - limit)
+    assert np.degrees(overshoot) <= 0.6
+    assert abs(np.degrees(angle - limit)) <= 0.01
+    assert abs(world.joints["velocity"][0]) < 1e-9
+
+
+def test_slider_limits_hold_both_ways():
+    """A slider along x between -0.1 and 0.2 m pushed at 1 m/s one way then the other: it
+    stops at each limit (restitution 0) and never passes it."""
+    world = rbd.World(dt=1 / 240)
+    body = world.add_body(rbd.shapes.box((0.1, 0.1, 0.1)), mass=1.0)
+    world.add_joint("prismatic", body, None, anchor=(0, 0, 0), axis=(1, 0, 0), limits=(-0.1, 0.2))
+    world.bodies.linear_momentum[body] = (1.0, 0.0, 0.0)
+    travel = []
+    for _ in range(120):
+        world.step()
+        travel.append(world.bodies.position[body][0])
+    assert max(travel) <= 0.2 + 1e-12
+    assert travel[-1] == pytest.approx(0.2, abs=1e-12)
+    assert abs(world.linear_velocity(body)[0]) < 1e-9
+    world.bodies.linear_momentum[body] = (-1.0, 0.0, 0.0)
+    for _ in range(120):
+        world.step()
+        travel.append(world.bodies.position[body][0])
+    assert min(travel) >= -0.1 - 1e-12
+    assert travel[-1] == pytest.approx(-0.1, abs=1e-12)

@@ -19,7 +19,11 @@ conserve the total linear and angular momentum. Rows of each kind (``joint_set``
   orientation at zero, q_b q_rel0, to its orientation q_a; ang_a = e_k = -ang_b;
 * on b's line (prismatic): C = (p_a - p_b) . n_b and . m_b, acting at p_a on both bodies
   (b's perpendiculars turn with b): ang_b = -((p_a - x_b) x n_b);
-* at the rod's length (distance): C = |p_a - p_b| - length along d = (p_a - p_b) / |.|.
+* at the rod's length (distance): C = |p_a - p_b| - length along d = (p_a - p_b) / |.|;
+* within limits (a limited hinge or slider, its last row): C = position - the limit it is
+  beyond, along the axis (a hinge: ang_a = axis = -ang_b; a slider: as a line row along the
+  axis). A limit acts only where it is reached: within them the row is written as zero where
+  ``active_limits_only`` asks, and the solve drops it.
 """
 
 from __future__ import annotations
@@ -37,20 +41,29 @@ from thesis_rbd.dynamics.joint_set import (
     BINORMAL_B,
     JOINT_KINDS,
     LENGTH,
+    LOWER,
     NORMAL_B,
     RELATIVE_ORIENTATION,
+    UPPER,
 )
 from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 
-__all__ = ["ROWS_OF_KIND", "joint_readout", "joint_rows", "read_joints"]
+__all__ = ["joint_readout", "joint_row_count", "joint_rows", "read_joints"]
 
 SPHERICAL = JOINT_KINDS["spherical"]
 REVOLUTE = JOINT_KINDS["revolute"]
 FIXED = JOINT_KINDS["fixed"]
 PRISMATIC = JOINT_KINDS["prismatic"]
 DISTANCE = JOINT_KINDS["distance"]
-# Rows of each kind, by code.
+# Rows of each kind, by code (a limited joint has one more).
 ROWS_OF_KIND = (3, 5, 6, 5, 1)
+
+
+@njit(allocates=False)
+def joint_row_count(kind, f):
+    """Rows of a joint: its kind's, and one for its limits if it has any."""
+    limited = f[LOWER] > -math.inf or f[UPPER] < math.inf
+    return ROWS_OF_KIND[kind] + (1 if limited else 0)
 
 
 @njit(allocates=False)
@@ -99,7 +112,7 @@ def _orientation_error(f, qa, qb):
 
 
 @njit(allocates=False)
-def joint_rows(kind, f, xa, qa, xb, qb, rows, first):
+def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
     """Write the rows of one joint at the poses given into ``rows[first:]``.
 
     Parameters
@@ -114,6 +127,10 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first):
     rows : (r, 10) float64
         Out: lin, ang_a, ang_b, error per row (module docstring).
     first : int
+    active_limits_only : bool
+        Write the limit row as zero unless a limit is passed (the rows of the poses being
+        corrected); False writes its direction always (the rows of the start of a substep,
+        which give the corrections their direction).
 
     Returns
     -------
@@ -158,7 +175,44 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first):
             e = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
             _write(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
             k += 1
+    if f[LOWER] > -math.inf or f[UPPER] < math.inf:
+        _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only)
+        k += 1
     return k - first
+
+
+@njit(allocates=False)
+def _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only):
+    """The limit row of a hinge or slider (module docstring)."""
+    axis = rotate(qb, _vector(f, AXIS_B))
+    if kind == REVOLUTE:
+        position = _hinge_angle(f, qa, qb)
+        lin, ang_a, ang_b = (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2])
+    else:
+        position = _dot(gap, axis)
+        arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+        across = _cross(arm, axis)
+        lin, ang_a, ang_b = axis, _cross(ra, axis), (-across[0], -across[1], -across[2])
+    beyond = position - f[LOWER] if position < f[LOWER] else max(position - f[UPPER], 0.0)
+    if active_limits_only and beyond == 0.0:
+        zero = (0.0, 0.0, 0.0)
+        _write(rows, k, zero, zero, zero, 0.0)
+    else:
+        _write(rows, k, lin, ang_a, ang_b, beyond)
+
+
+@njit(allocates=False)
+def _hinge_angle(f, qa, qb):
+    """Body a's angle about +axis relative to b since creation, in (-pi, pi]."""
+    q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
+          f[RELATIVE_ORIENTATION + 3])  # fmt: skip
+    e = mul(mul(conjugate(qb), qa), conjugate(q0))
+    angle = 2.0 * math.atan2(_dot(e, _vector(f, AXIS_B)), e[3])
+    if angle > math.pi:
+        return angle - 2.0 * math.pi
+    if angle <= -math.pi:
+        return angle + 2.0 * math.pi
+    return angle
 
 
 @njit(allocates=False)
@@ -192,15 +246,7 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
                   gap[2] - position * axis_b[2])  # fmt: skip
         distance = math.sqrt(_dot(across, across))
     if kind == REVOLUTE:
-        q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
-              f[RELATIVE_ORIENTATION + 3])  # fmt: skip
-        e = mul(mul(conjugate(qb), qa), conjugate(q0))
-        along = _dot(e, _vector(f, AXIS_B))
-        position = 2.0 * math.atan2(along, e[3])
-        if position > math.pi:
-            position -= 2.0 * math.pi
-        elif position <= -math.pi:
-            position += 2.0 * math.pi
+        position = _hinge_angle(f, qa, qb)
         velocity = _dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis_b)
         a = rotate(qa, _vector(f, AXIS_A))
         c = _cross(a, axis_b)

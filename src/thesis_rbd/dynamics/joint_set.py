@@ -12,7 +12,8 @@ bodies' own frames at creation, so the joint is zero where it was made:
   q_a), the zero of every angle;
 * the rod length of a distance joint (the anchors' distance at creation);
 * the joint's length scale, the larger bounding radius of its bodies, which sets the
-  tolerance its gap is solved to.
+  tolerance its gap is solved to;
+* the limits of a hinge's angle (rad) or a slider's travel (m), -inf and inf where none.
 
 Body b is -1 for the world. Kinds and the constraint rows each one holds (``joint_rows``):
 
@@ -45,14 +46,17 @@ JOINT_KINDS = {"spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "dista
 # Kinds the design names that this version does not build yet.
 _LATER_KINDS = ("universal", "generic")
 # Arguments of add_joint this version does not build yet, with the value that means "none".
-_LATER_OPTIONS = {"limits": None, "motor": None, "spring": None, "damping": 0.0, "friction": 0.0}
+_LATER_OPTIONS = {"motor": None, "spring": None, "damping": 0.0, "friction": 0.0}
 
 # Columns of ``JointSet.floats``.
 ARM_A, ARM_B, AXIS_A, AXIS_B, NORMAL_B, BINORMAL_B = 0, 3, 6, 9, 12, 15
 RELATIVE_ORIENTATION = 18
 LENGTH = 22
 SCALE = 23
-JOINT_FLOATS = 24
+LOWER, UPPER = 24, 25
+JOINT_FLOATS = 26
+# Kinds whose position (a hinge's angle, a slider's travel) limits bound.
+_LIMITED_KINDS = ("revolute", "prismatic")
 # Columns of ``JointSet.ints``.
 KIND, BODY_A, BODY_B = 0, 1, 2
 # An anchor may lie at most this many times a body's bounding radius from that body's centre
@@ -73,6 +77,30 @@ def _grouped(group, count, items) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(group, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(group, minlength=count))])
     return start.astype(np.int64), items[order].astype(np.int64)
+
+
+def _limits(kind: str, limits) -> tuple[float, float]:
+    """(lower, upper) of a joint's position from ``limits`` (None: unlimited)."""
+    if limits is None:
+        return -np.inf, np.inf
+    if kind not in _LIMITED_KINDS:
+        raise NotImplementedError(
+            f"limits on {kind!r} joints are not built yet; limits bound {_LIMITED_KINDS} joints"
+        )
+    try:
+        lower, upper = (float(v) for v in limits)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"limits must be (lower, upper) numbers, got {limits!r}") from exc
+    if np.isnan(lower) or np.isnan(upper) or lower == np.inf or upper == -np.inf:
+        raise ValueError(f"limits must be numbers, -inf for no lower, inf for no upper: {limits}")
+    if lower > upper:
+        raise ValueError(f"limits out of order: lower {lower} > upper {upper}")
+    if kind == "revolute" and (-np.inf < lower < -np.pi or np.pi < upper < np.inf):
+        raise ValueError(
+            f"a hinge's limits lie in [-pi, pi] (its angle's range; -inf or inf for none), got "
+            f"({lower}, {upper})"
+        )
+    return lower, upper
 
 
 class JointSet:
@@ -101,8 +129,8 @@ class JointSet:
     def add(self, kind, body_a, body_b, anchor, axis, anchor_b, collide, name, bodies, options):
         """Validate a joint against ``bodies`` (``BodyArrays``) and append it; return its index.
 
-        See ``World.add_joint`` for the arguments; ``options`` holds the arguments this
-        version does not build yet, which must be at their "none" values.
+        See ``World.add_joint`` for the arguments; ``options`` holds ``limits`` and the
+        arguments this version does not build yet, which must be at their "none" values.
         """
         if not isinstance(kind, str) or kind not in JOINT_KINDS:
             if kind in _LATER_KINDS:
@@ -157,6 +185,7 @@ class JointSet:
         row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(to_b, q_a)
         row[LENGTH] = rod
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
+        row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
         self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
         self.floats = np.vstack([self.floats, row])
         self.collide = np.append(self.collide, bool(collide))

@@ -32,10 +32,10 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
-from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, joint_rows
+from thesis_rbd.dynamics.joint_rows import joint_row_count, joint_rows
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
 from thesis_rbd.dynamics.joint_tree import factor_tree, solve_tree
-from thesis_rbd.spatial.quaternion import conjugate, normalize, rotate
+from thesis_rbd.spatial.quaternion import conjugate, mul, normalize, rotate
 
 __all__ = [
     "JOINT_ITERATIONS",
@@ -123,8 +123,8 @@ def step_jointed_bodies(
                 )  # fmt: skip
             first, last = joint_start[island], joint_start[island + 1]
             project_island(
-                h, joints, island_tree[island], neighbour_start[first : last + 1], neighbour,
-                ints, floats, frozen, substep_position, substep_orientation,
+                h, joints, bodies, island_tree[island], neighbour_start[first : last + 1],
+                neighbour, ints, floats, frozen, substep_position, substep_orientation,
                 position, orientation, linear_momentum, angular_momentum, inverse_mass,
                 inverse_inertia_body, impulse,
             )  # fmt: skip
@@ -259,7 +259,7 @@ def _solve(K, kept, x):
 
 @njit
 def project_island(
-    dt, joints, tree, neighbour_start, neighbour, ints, floats, frozen, saved_position,
+    dt, joints, bodies, tree, neighbour_start, neighbour, ints, floats, frozen, saved_position,
     saved_orientation, position, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, impulse,
 ):  # fmt: skip
@@ -273,6 +273,8 @@ def project_island(
         ``JointSet`` arrays.
     joints : (j,) int64
         The island's joints, in elimination order.
+    bodies : (b,) int64
+        The island's moving bodies, increasing.
     tree, neighbour_start, neighbour
         Whether the island is a tree, and then its joints' later neighbours (the slices of
         ``JointSet.islands``'s arrays for these joints: j + 1 starts, counted from any base):
@@ -290,11 +292,11 @@ def project_island(
     h = dt
     size = 0
     for j in joints:
-        size += ROWS_OF_KIND[ints[j, KIND]]
+        size += joint_row_count(ints[j, KIND], floats[j])
     # the rows' directions at the start of the substep (SHAKE): M^-1 J^T per row
     rows = np.empty((size, 10))
     row_joint = np.empty(size, np.int64)
-    _island_rows(joints, ints, floats, saved_position, saved_orientation, rows, row_joint)
+    _island_rows(joints, ints, floats, saved_position, saved_orientation, rows, row_joint, False)
     moved = np.empty((size, 12))  # (dx, dtheta) of a, then of b
     for k in range(size):
         j = row_joint[k]
@@ -314,13 +316,13 @@ def project_island(
             for c in range(3):
                 moved[k, 6 * side + c] = sign * im * rows[k, c]
                 moved[k, 6 * side + 3 + c] = turn[c]
-    layout = _tree_layout(joints, ints, neighbour_start, neighbour, tree)
+    layout = _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree)
     K = np.empty((0, 0)) if tree else np.empty((size, size))
     current = np.empty((size, 10))
     step = np.empty(size)
     for _ in range(JOINT_ITERATIONS):
         # the errors where the bodies are now
-        _island_rows(joints, ints, floats, position, orientation, current, row_joint)
+        _island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
         worst = 0.0
         for k in range(size):
             j = row_joint[k]
@@ -339,6 +341,10 @@ def project_island(
                     K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
             kept = _factor(K)
             _solve(K, kept, step)
+        # the rows' turns summed per body before any is applied: they cancel in large part
+        # (a point row turns a light ball about its centre as much as its limit row turns
+        # it back), which turning row by row would not do
+        spin = np.zeros((len(bodies), 3))
         for k in range(size):
             lam = step[k]
             j = row_joint[k]
@@ -347,30 +353,35 @@ def project_island(
                 if body < 0 or frozen[body]:
                     continue
                 sign = 1.0 if side == 0 else -1.0
-                theta = (lam * moved[k, 6 * side + 3], lam * moved[k, 6 * side + 4],
-                         lam * moved[k, 6 * side + 5])  # fmt: skip
-                q = orientation[body]
-                spin = (
-                    0.5 * (theta[0] * q[3] + theta[1] * q[2] - theta[2] * q[1]),
-                    0.5 * (theta[1] * q[3] - theta[0] * q[2] + theta[2] * q[0]),
-                    0.5 * (theta[2] * q[3] + theta[0] * q[1] - theta[1] * q[0]),
-                    0.5 * (-theta[0] * q[0] - theta[1] * q[1] - theta[2] * q[2]),
-                )
-                turned = normalize((q[0] + spin[0], q[1] + spin[1], q[2] + spin[2],
-                                    q[3] + spin[3]))  # fmt: skip
-                for c in range(4):
-                    orientation[body, c] = turned[c]
+                local = np.searchsorted(bodies, body)
                 for c in range(3):
+                    spin[local, c] += lam * moved[k, 6 * side + 3 + c]
                     position[body, c] += lam * moved[k, 6 * side + c]
                     linear_momentum[body, c] += sign * rows[k, c] * lam / h
                     angular_momentum[body, c] += rows[k, 3 + 3 * side + c] * lam / h
             for c in range(3):
                 impulse[j, c] += rows[k, c] * lam / h
                 impulse[j, 3 + c] += rows[k, 3 + c] * lam / h
+        for local in range(len(bodies)):
+            _turn(orientation, bodies[local], spin[local])
 
 
 @njit
-def _tree_layout(joints, ints, neighbour_start, neighbour, tree):
+def _turn(orientation, body, theta):
+    """Turn body's orientation by the world rotation vector theta (exactly)."""
+    angle = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
+    if angle == 0.0:
+        return
+    s = math.sin(0.5 * angle) / angle
+    turn = (s * theta[0], s * theta[1], s * theta[2], math.cos(0.5 * angle))
+    q = orientation[body]
+    turned = normalize(mul(turn, (q[0], q[1], q[2], q[3])))
+    for c in range(4):
+        orientation[body, c] = turned[c]
+
+
+@njit
+def _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree):
     """The block layout of ``joint_tree`` for an island (empty unless ``tree``): rows and
     row starts per joint, slots, each slot's neighbour, and the block and mask storage."""
     p = len(joints) if tree else 0
@@ -382,7 +393,7 @@ def _tree_layout(joints, ints, neighbour_start, neighbour, tree):
     row_start[0] = 0
     self_slot[0] = 0
     for e in range(p):
-        rows[e] = ROWS_OF_KIND[ints[joints[e], KIND]]
+        rows[e] = joint_row_count(ints[joints[e], KIND], floats[joints[e]])
         row_start[e + 1] = row_start[e] + rows[e]
         later = neighbour_start[e + 1] - neighbour_start[e]
         for k in range(later):
@@ -413,13 +424,14 @@ def _tree_solve(layout, ints, row_joint, current, moved, step):
 
 
 @njit
-def _island_rows(joints, ints, floats, position, orientation, rows, row_joint):
-    """The rows of the island's ``joints`` at the given poses, and the joint of each row."""
+def _island_rows(joints, ints, floats, position, orientation, rows, row_joint, active_only):
+    """The rows of the island's ``joints`` at the given poses, and the joint of each row
+    (``active_only``: limit rows as ``joint_rows``'s ``active_limits_only``)."""
     r = 0
     for j in joints:
         xa, qa = _pose(ints[j, BODY_A], position, orientation)
         xb, qb = _pose(ints[j, BODY_B], position, orientation)
-        n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, r)
+        n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, r, active_only)
         for k in range(r, r + n):
             row_joint[k] = j
         r += n

@@ -40,7 +40,11 @@ class WorldJoints:
             World direction of a hinge or slider, now; need not be unit length.
         anchor_b : (3,) array_like, optional
             A distance joint's point on body_b (world, now).
-        limits, motor, spring, damping, friction
+        limits : (lower, upper), optional
+            Bounds of a hinge's angle (rad, within [-pi, pi]) or a slider's travel (m),
+            -inf / inf for none: a one-sided row that acts only where a limit is reached,
+            held at the end of every substep (no overshoot, no bounce).
+        motor, spring, damping, friction
             Not built yet: leave them out (a clear error says so).
         collide : bool
             Whether body_a and body_b still collide with each other (False by default).
