@@ -395,7 +395,7 @@ def test_exclude_pair_needs_two_bodies():
 
 @pytest.mark.parametrize(
     "options",
-    [{"motor": {"velocity": 1.0, "max_force": 1.0}}, {"damping": 0.1}, {"spring": {}}],
+    [{"damping": 0.1}, {"spring": {}}, {"friction": 0.2}],
 )
 def test_joint_options_not_built_yet_say_so(options):
     world = rbd.World()
@@ -583,3 +583,79 @@ def test_slider_limits_hold_both_ways():
         travel.append(world.bodies.position[body][0])
     assert min(travel) >= -0.1 - 1e-12
     assert travel[-1] == pytest.approx(-0.1, abs=1e-12)
+
+
+# ----------------------------------------------------------------------------- motors
+def test_slider_velocity_motor_reaches_its_target_at_its_force_cap():
+    """A 1 kg slider, 1 m/s target, 2 N cap: it accelerates at 2 m/s^2, so it reaches 99 %
+    of the target at 0.495 s (within 1 %), and never passes the target by more than 0.1 %;
+    the motor reports its 2 N while accelerating."""
+    dt = 1 / 240
+    world = rbd.World(dt=dt)
+    body = world.add_body(rbd.shapes.box((0.1, 0.1, 0.1)), mass=1.0)
+    motor = {"velocity": 1.0, "max_force": 2.0}
+    world.add_joint("prismatic", body, None, anchor=(0, 0, 0), axis=(1, 0, 0), motor=motor)
+    speeds, forces = [], []
+    for _ in range(240):
+        world.step()
+        speeds.append(world.joints["velocity"][0])
+        forces.append(world.joints["motor_force"][0])
+    speeds = np.array(speeds)
+    reached = (np.argmax(speeds >= 0.99) + 1) * dt
+    assert reached == pytest.approx(0.495, rel=0.01)
+    assert speeds.max() <= 1.001
+    assert speeds[-1] == pytest.approx(1.0, rel=1e-9)
+    assert forces[10] == pytest.approx(2.0, rel=1e-9)
+    assert abs(forces[-1]) < 1e-9
+
+
+def test_hinge_torque_motor_spins_a_wheel_as_newton_says():
+    """A set torque on a wheel hinged to the world in zero gravity: w = tau t / I about the
+    axis (the wheel's own moment of inertia), and switching the motor off keeps that rate."""
+    world = rbd.World(dt=1 / 240)
+    wheel = world.add_body(rbd.shapes.cylinder(0.3, 0.1), mass=2.0)
+    joint = world.add_joint(
+        "revolute", wheel, None, anchor=(0, 0, 0), axis=(0, 0, 1), motor={"torque": 0.5}
+    )
+    world.step(120)
+    inertia = world.bodies.inertia_body[wheel][2, 2]
+    rate = 0.5 * world.time / inertia
+    assert world.joints["velocity"][0] == pytest.approx(rate, rel=1e-9)
+    assert world.joints["motor_force"][0] == pytest.approx(0.5, rel=1e-12)
+    world.set_motor(joint)
+    world.step(60)
+    assert world.joints["velocity"][0] == pytest.approx(rate, rel=1e-9)
+
+
+def test_a_motor_between_two_free_bodies_conserves_momentum():
+    """A hinge motor spinning two floating, tumbling bodies against each other: their total
+    linear and angular momentum stay where they were (equal and opposite impulses), and the
+    hinge turns near its target (the motor sets the rate before the bodies move; their
+    tumbling changes it within the substep, by about h w^2)."""
+    world, *_ = _two_bodies("revolute", seed=5)
+    world.set_motor(0, velocity=3.0, max_force=5.0)
+    linear0, angular0 = _momenta(world)
+    world.step(240)
+    linear, angular = _momenta(world)
+    assert world.joints["velocity"][0] == pytest.approx(3.0, abs=0.1)
+    np.testing.assert_allclose(linear, linear0, atol=1e-12)
+    np.testing.assert_allclose(angular, angular0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("motor", "error", "message"),
+    [
+        ({"velocity": 1.0}, ValueError, "give"),
+        ({"velocity": 1.0, "max_force": -1.0}, ValueError, "max_force must be >= 0"),
+        ({"torque": np.inf}, ValueError, "motor torque must be finite"),
+        ({"position": 0.5, "stiffness": 10.0}, NotImplementedError, "not built yet"),
+        ("fast", ValueError, "motor must be a dict"),
+    ],
+)
+def test_bad_motors_are_refused(motor, error, message):
+    world = rbd.World()
+    world.add_body(rbd.shapes.box())
+    with pytest.raises(error, match=message):
+        world.add_joint("revolute", 0, None, anchor=(0, 0, 0), motor=motor)
+    with pytest.raises(ValueError, match="no joint 3"):
+        world.set_motor(3, torque=1.0)

@@ -48,7 +48,7 @@ from thesis_rbd.dynamics.joint_set import (
 )
 from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 
-__all__ = ["joint_readout", "joint_row_count", "joint_rows", "read_joints"]
+__all__ = ["axis_row", "joint_readout", "joint_row_count", "joint_rows", "read_joints"]
 
 SPHERICAL = JOINT_KINDS["spherical"]
 REVOLUTE = JOINT_KINDS["revolute"]
@@ -184,21 +184,33 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
 @njit(allocates=False)
 def _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only):
     """The limit row of a hinge or slider (module docstring)."""
-    axis = rotate(qb, _vector(f, AXIS_B))
-    if kind == REVOLUTE:
-        position = _hinge_angle(f, qa, qb)
-        lin, ang_a, ang_b = (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2])
-    else:
-        position = _dot(gap, axis)
-        arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
-        across = _cross(arm, axis)
-        lin, ang_a, ang_b = axis, _cross(ra, axis), (-across[0], -across[1], -across[2])
+    lin, ang_a, ang_b, position = _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
     beyond = position - f[LOWER] if position < f[LOWER] else max(position - f[UPPER], 0.0)
     if active_limits_only and beyond == 0.0:
         zero = (0.0, 0.0, 0.0)
         _write(rows, k, zero, zero, zero, 0.0)
     else:
         _write(rows, k, lin, ang_a, ang_b, beyond)
+
+
+@njit(allocates=False)
+def _along_axis(kind, f, xa, qa, xb, qb, ra, gap):
+    """(lin, ang_a, ang_b, position) of a hinge's angle or a slider's travel: the row that
+    moves the joint along its axis, and where it is."""
+    axis = rotate(qb, _vector(f, AXIS_B))
+    if kind == REVOLUTE:
+        return (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2]), _hinge_angle(f, qa, qb)
+    arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+    across = _cross(arm, axis)
+    return axis, _cross(ra, axis), (-across[0], -across[1], -across[2]), _dot(gap, axis)
+
+
+@njit(allocates=False)
+def axis_row(kind, f, xa, qa, xb, qb):
+    """(lin, ang_a, ang_b) of a hinge's or slider's motion along its axis (its motor's row)."""
+    ra, _, gap = _frames(f, xa, qa, xb, qb)
+    lin, ang_a, ang_b, _ = _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
+    return lin, ang_a, ang_b
 
 
 @njit(allocates=False)

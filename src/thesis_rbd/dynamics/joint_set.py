@@ -13,7 +13,9 @@ bodies' own frames at creation, so the joint is zero where it was made:
 * the rod length of a distance joint (the anchors' distance at creation);
 * the joint's length scale, the larger bounding radius of its bodies, which sets the
   tolerance its gap is solved to;
-* the limits of a hinge's angle (rad) or a slider's travel (m), -inf and inf where none.
+* the limits of a hinge's angle (rad) or a slider's travel (m), -inf and inf where none;
+* its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
+  or force it may use, or a set torque (N m) or force (N).
 
 Body b is -1 for the world. Kinds and the constraint rows each one holds (``joint_rows``):
 
@@ -46,7 +48,7 @@ JOINT_KINDS = {"spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "dista
 # Kinds the design names that this version does not build yet.
 _LATER_KINDS = ("universal", "generic")
 # Arguments of add_joint this version does not build yet, with the value that means "none".
-_LATER_OPTIONS = {"motor": None, "spring": None, "damping": 0.0, "friction": 0.0}
+_LATER_OPTIONS = {"spring": None, "damping": 0.0, "friction": 0.0}
 
 # Columns of ``JointSet.floats``.
 ARM_A, ARM_B, AXIS_A, AXIS_B, NORMAL_B, BINORMAL_B = 0, 3, 6, 9, 12, 15
@@ -54,7 +56,10 @@ RELATIVE_ORIENTATION = 18
 LENGTH = 22
 SCALE = 23
 LOWER, UPPER = 24, 25
-JOINT_FLOATS = 26
+MOTOR, MOTOR_TARGET, MOTOR_MAX = 26, 27, 28
+JOINT_FLOATS = 29
+# Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque.
+NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR = 0, 1, 2
 # Kinds whose position (a hinge's angle, a slider's travel) limits bound.
 _LIMITED_KINDS = ("revolute", "prismatic")
 # Columns of ``JointSet.ints``.
@@ -101,6 +106,46 @@ def _limits(kind: str, limits) -> tuple[float, float]:
             f"({lower}, {upper})"
         )
     return lower, upper
+
+
+def _motor(kind: str, motor) -> tuple[float, float, float]:
+    """(code, target, cap) of a motor given as World.add_joint's ``motor`` (None: none)."""
+    if motor is None:
+        return NO_MOTOR, 0.0, 0.0
+    if not isinstance(motor, dict):
+        raise ValueError(f"motor must be a dict such as {{'velocity': 1.0, 'max_force': 2.0}}, "
+                         f"got {motor!r}")  # fmt: skip
+    if kind not in _LIMITED_KINDS:
+        raise NotImplementedError(
+            f"motors on {kind!r} joints are not built yet; motors drive {_LIMITED_KINDS} joints"
+        )
+    if "position" in motor or "servo" in motor:
+        raise NotImplementedError(
+            "position and servo motors are not built yet; use {'velocity': v, 'max_force': f} "
+            "or {'torque': t}"
+        )
+    keys = set(motor)
+    if keys == {"velocity", "max_force"}:
+        velocity = _finite(motor["velocity"], "motor velocity")
+        cap = _finite(motor["max_force"], "motor max_force")
+        if cap < 0.0:
+            raise ValueError(f"motor max_force must be >= 0, got {cap}")
+        return VELOCITY_MOTOR, velocity, cap
+    if keys == {"torque"}:
+        return TORQUE_MOTOR, _finite(motor["torque"], "motor torque"), 0.0
+    raise ValueError(f"motor {motor!r}: give {{'velocity': v, 'max_force': f}} or {{'torque': t}}")
+
+
+def _finite(value, name: str) -> float:
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a number, got {value!r}") from exc
+    if not np.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {number}")
+    return number
 
 
 class JointSet:
@@ -186,6 +231,7 @@ class JointSet:
         row[LENGTH] = rod
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
+        row[MOTOR : MOTOR + 3] = _motor(kind, options.get("motor"))
         self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
         self.floats = np.vstack([self.floats, row])
         self.collide = np.append(self.collide, bool(collide))
@@ -194,6 +240,15 @@ class JointSet:
             raise ValueError(f"joint name must be a non-empty string, got {name!r}")
         self.names.append(name if name is not None else f"joint{index}")
         return index
+
+    def set_motor(self, index: int, motor: dict | None) -> None:
+        """Replace joint ``index``'s motor (None: switch it off), in place."""
+        if isinstance(index, bool) or not isinstance(index, int | np.integer):
+            raise ValueError(f"joint must be a joint index, got {index!r}")
+        if not 0 <= index < len(self):
+            raise ValueError(f"no joint {index}; the world has {len(self)} joints")
+        kind = list(JOINT_KINDS)[self.ints[index, KIND]]
+        self.floats[index, MOTOR : MOTOR + 3] = _motor(kind, motor)
 
     @staticmethod
     def _body(body, field, bodies, allow_world) -> int:

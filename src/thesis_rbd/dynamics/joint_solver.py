@@ -6,7 +6,7 @@ The integrator skips jointed bodies; the ``joints`` stage after it moves them in
 sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep of length h:
 
 * momenta take the forces, P += h F and L += h tau (a body the contact stage solved already
-  has its final momenta for the whole step);
+  has its final momenta for the whole step), and the joints' motors act (``joint_motors``);
 * positions follow the new momenta, x += h v, q turned freely with L held: symplectic Euler,
   whatever ``World.integrator`` says;
 * every joint is put back together by Newton's method on all rows of its island at once, a
@@ -32,6 +32,7 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
+from thesis_rbd.dynamics.joint_motors import drive_motors
 from thesis_rbd.dynamics.joint_rows import joint_row_count, joint_rows
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
 from thesis_rbd.dynamics.joint_tree import factor_tree, solve_tree
@@ -85,9 +86,10 @@ def step_jointed_bodies(
         Scratch: where each jointed body began the substep.
     save_start, start_position, start_orientation
         As ``integrate_bodies``: where each body began the step, for the collision stages.
-    impulse : (m, 6) float64
+    impulse : (m, 7) float64
         In: each joint's impulse on body a over the last step (the automatic substeps
-        follow it); out: over this step (``project_island``).
+        follow it); out: over this step (``project_island``, ``drive_motors``; column 6 is
+        the motor's along the axis).
     Other parameters as ``integrate_bodies``.
 
     Returns
@@ -116,11 +118,18 @@ def step_jointed_bodies(
                     start_orientation[i, k] = orientation[i, k]
         for _ in range(parts):
             for i in bodies:
-                _move(
+                _kick(
                     i, h, solved, substep_position, substep_orientation, position, orientation,
                     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
                     external_force, drag, pf_start, pf_arm, pf_force,
                 )  # fmt: skip
+            drive_motors(
+                h, joints, ints, floats, frozen, position, orientation, linear_momentum,
+                angular_momentum, inverse_mass, inverse_inertia_body, impulse,
+            )  # fmt: skip
+            for i in bodies:
+                _drift(i, h, position, orientation, linear_momentum, angular_momentum,
+                       inverse_mass, inverse_inertia_body)  # fmt: skip
             first, last = joint_start[island], joint_start[island + 1]
             project_island(
                 h, joints, bodies, island_tree[island], neighbour_start[first : last + 1],
@@ -138,12 +147,13 @@ def step_jointed_bodies(
 
 
 @njit
-def _move(
+def _kick(
     i, h, solved, substep_position, substep_orientation, position, orientation,
     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, external_force,
     drag, pf_start, pf_arm, pf_force,
 ):  # fmt: skip
-    """One substep of symplectic Euler for body i; its pose before it kept in the scratch."""
+    """The momentum half of a substep of symplectic Euler for body i (none for a body the
+    contact stage solved); its pose kept in the scratch as where the substep began."""
     for k in range(3):
         substep_position[i, k] = position[i, k]
     for k in range(4):
@@ -156,6 +166,12 @@ def _move(
         for k in range(3):
             linear_momentum[i, k] += h * F[k]
             angular_momentum[i, k] += h * T[k]
+
+
+@njit
+def _drift(i, h, position, orientation, linear_momentum, angular_momentum, inverse_mass,
+           inverse_inertia_body):  # fmt: skip
+    """The position half: x += h v, q turned freely with L held."""
     im = inverse_mass[i]
     q = orientation[i]
     L = angular_momentum[i]

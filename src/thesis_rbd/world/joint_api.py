@@ -44,7 +44,12 @@ class WorldJoints:
             Bounds of a hinge's angle (rad, within [-pi, pi]) or a slider's travel (m),
             -inf / inf for none: a one-sided row that acts only where a limit is reached,
             held at the end of every substep (no overshoot, no bounce).
-        motor, spring, damping, friction
+        motor : dict, optional
+            A hinge's or slider's motor, SI units: ``{"velocity": v, "max_force": f}`` drives
+            its rate towards v (rad/s or m/s) with at most f (N m or N), ``{"torque": t}``
+            pushes with t (N m or N) about / along +axis. Position and servo motors are not
+            built yet.
+        spring, damping, friction
             Not built yet: leave them out (a clear error says so).
         collide : bool
             Whether body_a and body_b still collide with each other (False by default).
@@ -68,6 +73,14 @@ class WorldJoints:
         self._plan_stages()
         return index
 
+    def set_motor(self, joint: int, **motor) -> None:
+        """Change a joint's motor between steps (no arguments: switch it off); the keywords
+        are those of ``add_joint``'s ``motor``."""
+        self._joints.set_motor(joint, motor or None)
+        joined = self._joints.ints[joint, BODY_A : BODY_B + 1]
+        self._sleep.wake(joined[joined >= 0])
+        self._plan_stages()
+
     def exclude_pair(self, body_a: int, body_b: int) -> None:
         """Never let these two bodies collide with each other."""
         a, b = self._check_body(body_a), self._check_body(body_b)
@@ -87,7 +100,8 @@ class WorldJoints:
         anchors are from where the joint holds them (m); ``angle_error`` (m,) how far the
         orientation is from what it holds (rad); ``force`` and ``torque`` (m, 3): what body_b
         (or the world) exerted on body_a over the last step, at the anchor, world frame (N,
-        N m; the impulse of the step's projection over dt).
+        N m; the impulses of the step's projection and motor over dt); ``motor_force`` (m,)
+        the motor's torque or force along the axis over the last step (N m or N).
         """
         joints, b = self._joints, self.bodies
         ints = joints.ints
@@ -109,5 +123,6 @@ class WorldJoints:
             "gap": readout[:, 2],
             "angle_error": readout[:, 3],
             "force": force.copy(),
-            "torque": impulse[:, 3:] - np.cross(arm.reshape(-1, 3), force),
+            "torque": impulse[:, 3:6] - np.cross(arm.reshape(-1, 3), force),
+            "motor_force": impulse[:, 6].copy(),
         }

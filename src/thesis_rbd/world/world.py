@@ -238,7 +238,7 @@ class World(WorldReadout, WorldJoints):
         self._sleep = SleepState(SleepSettings(enabled=bool(sleeping)))
         self._joints = JointSet()
         self._excluded = np.zeros((0, 2), np.int64)
-        self._joint_impulse = np.zeros((0, 6))
+        self._joint_impulse = np.zeros((0, 7))
         self._state = StepState.initial(0, len(STATS))
         self._plan_stages()
 
@@ -427,7 +427,7 @@ class World(WorldReadout, WorldJoints):
         """What the step kernel's joint stages take (``run_steps``'s ``joint_group``)."""
         joints, b = self._joints, self.bodies
         islands = joints.islands(b.static)
-        self._joint_impulse = np.zeros((len(joints), 6))
+        self._joint_impulse = np.zeros((len(joints), 7))
         rows = len(b.full("inverse_mass"))
         jointed = np.zeros(rows, bool)
         jointed[: b.count] = joints.jointed(b.count)
