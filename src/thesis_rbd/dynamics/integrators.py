@@ -41,7 +41,7 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.spatial.quaternion import conjugate, derivative, normalize, rotate
 
-__all__ = ["INTEGRATORS", "body_forces", "integrate_bodies"]
+__all__ = ["INTEGRATORS", "angular_velocity", "body_forces", "integrate_bodies"]
 
 INTEGRATORS = {"euler": 0, "symplectic_euler": 1, "midpoint": 2, "rk4": 3, "verlet": 4}
 VERLET = INTEGRATORS["verlet"]
@@ -60,8 +60,9 @@ _ZERO4 = (0.0, 0.0, 0.0, 0.0)
 
 
 @njit
-def _angular_velocity(q, L, inv_inertia):
-    """w = R I_body^-1 R^T L for unit q (4-tuple), L (3-tuple) and I_body^-1 (3, 3)."""
+def angular_velocity(q, L, inv_inertia):
+    """w = R I_body^-1 R^T L for unit q (4-tuple), L (3-tuple) and I_body^-1 (3, 3): any
+    world vector through the world-frame inverse inertia."""
     Lb = rotate(conjugate(q), L)
     wb = (
         inv_inertia[0, 0] * Lb[0] + inv_inertia[0, 1] * Lb[1] + inv_inertia[0, 2] * Lb[2],
@@ -76,7 +77,7 @@ def _derivative(i, q, P, L, inv_mass, inv_inertia, force, drag, pf_start, pf_arm
     """(dx, dq, dP, dL) of body i at orientation q and momenta P, L (tuples)."""
     qn = normalize(q)
     v = (P[0] * inv_mass, P[1] * inv_mass, P[2] * inv_mass)
-    w = _angular_velocity(qn, L, inv_inertia)
+    w = angular_velocity(qn, L, inv_inertia)
     speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
     c = drag[0] + drag[1] * speed
     F = (force[i, 0] - c * v[0], force[i, 1] - c * v[1], force[i, 2] - c * v[2])
@@ -239,7 +240,7 @@ def integrate_bodies(
             P, L = _add3(P0, hb, sF), _add3(L0, hb, sT)
             if method == 1:  # symplectic Euler: the configuration moves with the new momenta
                 v = (P[0] * im, P[1] * im, P[2] * im)
-                w = _angular_velocity(normalize(q0), L, Ii)
+                w = angular_velocity(normalize(q0), L, Ii)
                 x, q = _add3(x0, h, v), _add4(q0, h, derivative(q0, w))
             else:
                 x, q = _add3(x0, hb, sv), _add4(q0, hb, sq)

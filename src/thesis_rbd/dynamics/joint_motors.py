@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
-from thesis_rbd.dynamics.joint_rows import axis_row
+from thesis_rbd.dynamics.integrators import angular_velocity
+from thesis_rbd.dynamics.joint_rows import axis_row, body_pose
 from thesis_rbd.dynamics.joint_set import (
     BODY_A,
     BODY_B,
@@ -32,31 +33,11 @@ from thesis_rbd.dynamics.joint_set import (
     NO_MOTOR,
     TORQUE_MOTOR,
 )
-from thesis_rbd.spatial.quaternion import conjugate, rotate
 
 __all__ = ["MOTOR_SWEEPS", "drive_motors"]
 
 # Gauss-Seidel sweeps over an island's velocity motors per substep.
 MOTOR_SWEEPS = 4
-
-
-@njit
-def _state(body, position, orientation):
-    if body < 0:
-        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
-    x, q = position[body], orientation[body]
-    return (x[0], x[1], x[2]), (q[0], q[1], q[2], q[3])
-
-
-@njit
-def _inverse_inertia_times(q, inverse_inertia, v):
-    u = rotate(conjugate(q), v)
-    w = (
-        inverse_inertia[0, 0] * u[0] + inverse_inertia[0, 1] * u[1] + inverse_inertia[0, 2] * u[2],
-        inverse_inertia[1, 0] * u[0] + inverse_inertia[1, 1] * u[1] + inverse_inertia[1, 2] * u[2],
-        inverse_inertia[2, 0] * u[0] + inverse_inertia[2, 1] * u[1] + inverse_inertia[2, 2] * u[2],
-    )
-    return rotate(q, w)
 
 
 @njit
@@ -69,8 +50,8 @@ def _row_velocity_and_mass(body, sign, lin, ang, frozen, orientation, P, L, inve
     qt = (q[0], q[1], q[2], q[3])
     im = inverse_mass[body]
     Iinv = inverse_inertia_body[body]
-    w = _inverse_inertia_times(qt, Iinv, (L[body, 0], L[body, 1], L[body, 2]))
-    turn = _inverse_inertia_times(qt, Iinv, ang)
+    w = angular_velocity(qt, (L[body, 0], L[body, 1], L[body, 2]), Iinv)
+    turn = angular_velocity(qt, ang, Iinv)
     velocity = sign * im * (lin[0] * P[body, 0] + lin[1] * P[body, 1] + lin[2] * P[body, 2])
     velocity += ang[0] * w[0] + ang[1] * w[1] + ang[2] * w[2]
     mass = im * (lin[0] ** 2 + lin[1] ** 2 + lin[2] ** 2)
@@ -112,8 +93,8 @@ def drive_motors(
             if int(floats[j, MOTOR]) == NO_MOTOR or int(floats[j, MOTOR]) == TORQUE_MOTOR:
                 continue
             a, b = ints[j, BODY_A], ints[j, BODY_B]
-            xa, qa = _state(a, position, orientation)
-            xb, qb = _state(b, position, orientation)
+            xa, qa = body_pose(a, position, orientation)
+            xb, qb = body_pose(b, position, orientation)
             lin, ang_a, ang_b = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
             va, ma = _row_velocity_and_mass(a, 1.0, lin, ang_a, frozen, orientation,
                                             linear_momentum, angular_momentum, inverse_mass,
@@ -136,8 +117,8 @@ def _apply(j, lam, ints, floats, frozen, position, orientation, linear_momentum,
            angular_momentum, impulse):  # fmt: skip
     """An impulse lam along joint j's axis row: +row on body a, -row on body b."""
     a, b = ints[j, BODY_A], ints[j, BODY_B]
-    xa, qa = _state(a, position, orientation)
-    xb, qb = _state(b, position, orientation)
+    xa, qa = body_pose(a, position, orientation)
+    xb, qb = body_pose(b, position, orientation)
     lin, ang_a, ang_b = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
     for c in range(3):
         if a >= 0 and not frozen[a]:

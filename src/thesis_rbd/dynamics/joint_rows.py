@@ -48,7 +48,14 @@ from thesis_rbd.dynamics.joint_set import (
 )
 from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 
-__all__ = ["axis_row", "joint_readout", "joint_row_count", "joint_rows", "read_joints"]
+__all__ = [
+    "axis_row",
+    "body_pose",
+    "joint_readout",
+    "joint_row_count",
+    "joint_rows",
+    "read_joints",
+]
 
 SPHERICAL = JOINT_KINDS["spherical"]
 REVOLUTE = JOINT_KINDS["revolute"]
@@ -89,6 +96,15 @@ def _write(rows, k, lin, ang_a, ang_b, error):
         rows[k, 3 + i] = ang_a[i]
         rows[k, 6 + i] = ang_b[i]
     rows[k, 9] = error
+
+
+@njit(allocates=False)
+def body_pose(body, position, orientation):
+    """(x, q) tuples of a body (-1: the world, at the origin unturned)."""
+    if body < 0:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
+    x, q = position[body], orientation[body]
+    return (x[0], x[1], x[2]), (q[0], q[1], q[2], q[3])
 
 
 @njit(allocates=False)

@@ -18,9 +18,10 @@ sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep
   end of the substep lose energy too). Iterations stop once every row holds to 1e-12 of the
   joint's scale (1e-12 rad for angular rows).
 
-The Newton matrix is factorised as L U with rows of a vanishing pivot dropped: the
-redundant rows of a closed loop (a four-bar linkage holds one constraint twice) are then held
-by the others instead of making the solve singular.
+The Newton matrix is factorised as L U with rows of a vanishing pivot dropped
+(``joint_tree``): block by block in linear time where the island is a tree, whole where it has
+a closed loop, whose redundant rows (a four-bar linkage holds one constraint twice) are then
+held by the others instead of making the solve singular.
 """
 
 from __future__ import annotations
@@ -31,12 +32,12 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
-from thesis_rbd.dynamics.integrators import body_forces
+from thesis_rbd.dynamics.integrators import angular_velocity, body_forces
 from thesis_rbd.dynamics.joint_motors import drive_motors
-from thesis_rbd.dynamics.joint_rows import joint_row_count, joint_rows
+from thesis_rbd.dynamics.joint_rows import body_pose, joint_row_count, joint_rows
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
-from thesis_rbd.dynamics.joint_tree import factor_tree, solve_tree
-from thesis_rbd.spatial.quaternion import conjugate, mul, normalize, rotate
+from thesis_rbd.dynamics.joint_tree import factor_tree, left_solve, lu_in_place, solve_tree
+from thesis_rbd.spatial.quaternion import mul, normalize
 
 __all__ = [
     "JOINT_ITERATIONS",
@@ -203,77 +204,6 @@ def auto_substeps(dt, joints, ints, floats, inverse_mass, impulse):
 
 
 @njit
-def _pose(body, position, orientation):
-    if body < 0:
-        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
-    x, q = position[body], orientation[body]
-    return (x[0], x[1], x[2]), (q[0], q[1], q[2], q[3])
-
-
-@njit
-def _inverse_inertia_times(q, inverse_inertia, v):
-    """R I_body^-1 R^T v for unit q."""
-    u = rotate(conjugate(q), (v[0], v[1], v[2]))
-    w = (
-        inverse_inertia[0, 0] * u[0] + inverse_inertia[0, 1] * u[1] + inverse_inertia[0, 2] * u[2],
-        inverse_inertia[1, 0] * u[0] + inverse_inertia[1, 1] * u[1] + inverse_inertia[1, 2] * u[2],
-        inverse_inertia[2, 0] * u[0] + inverse_inertia[2, 1] * u[1] + inverse_inertia[2, 2] * u[2],
-    )
-    return rotate(q, w)
-
-
-@njit
-def _factor(K):
-    """L U of K in place (unit L below the diagonal, U on and above it), without pivoting:
-    K is J M^-1 J^T taken at two nearby poses, nearly symmetric positive semi-definite.
-    Returns which rows are kept: a row whose pivot vanishes (below ``_REDUNDANT`` of its
-    diagonal) is redundant, its constraint held by the others, and is dropped."""
-    m = K.shape[0]
-    kept = np.ones(m, np.bool_)
-    for j in range(m):
-        if not abs(K[j, j]) > _REDUNDANT * _diagonal_scale(K, j):
-            kept[j] = False
-            continue
-        for i in range(j + 1, m):
-            factor = K[i, j] / K[j, j]
-            K[i, j] = factor
-            for k in range(j + 1, m):
-                K[i, k] -= factor * K[j, k]
-    return kept
-
-
-@njit
-def _diagonal_scale(K, j):
-    """The largest |entry| of row j left of and on the diagonal, as the factor found it: a
-    pivot far below it has lost every digit to cancellation."""
-    largest = 0.0
-    for k in range(j + 1):
-        largest = max(largest, abs(K[j, k]))
-    return largest
-
-
-@njit
-def _solve(K, kept, x):
-    """Solve with the factor of ``_factor`` in place of the right-hand side x; zero along
-    dropped rows."""
-    m = K.shape[0]
-    for i in range(m):
-        if not kept[i]:
-            x[i] = 0.0
-            continue
-        for k in range(i):
-            if kept[k]:
-                x[i] -= K[i, k] * x[k]
-    for i in range(m - 1, -1, -1):
-        if not kept[i]:
-            continue
-        for k in range(i + 1, m):
-            if kept[k]:
-                x[i] -= K[i, k] * x[k]
-        x[i] /= K[i, i]
-
-
-@njit
 def project_island(
     dt, joints, bodies, tree, neighbour_start, neighbour, ints, floats, frozen, saved_position,
     saved_orientation, position, orientation, linear_momentum, angular_momentum, inverse_mass,
@@ -325,10 +255,10 @@ def project_island(
                 continue
             im = inverse_mass[body]
             q = saved_orientation[body]
-            turn = _inverse_inertia_times(
-                (q[0], q[1], q[2], q[3]), inverse_inertia_body[body],
-                rows[k, 3 + 3 * side : 6 + 3 * side],
-            )  # fmt: skip
+            a = rows[k, 3 + 3 * side : 6 + 3 * side]
+            turn = angular_velocity(
+                (q[0], q[1], q[2], q[3]), (a[0], a[1], a[2]), inverse_inertia_body[body]
+            )
             for c in range(3):
                 moved[k, 6 * side + c] = sign * im * rows[k, c]
                 moved[k, 6 * side + 3 + c] = turn[c]
@@ -355,8 +285,8 @@ def project_island(
             for i in range(size):
                 for k in range(size):
                     K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
-            kept = _factor(K)
-            _solve(K, kept, step)
+            kept = lu_in_place(K, size)
+            left_solve(K, kept, size, step, 0)
         # the rows' turns summed per body before any is applied: they cancel in large part
         # (a point row turns a light ball about its centre as much as its limit row turns
         # it back), which turning row by row would not do
@@ -445,8 +375,8 @@ def _island_rows(joints, ints, floats, position, orientation, rows, row_joint, a
     (``active_only``: limit rows as ``joint_rows``'s ``active_limits_only``)."""
     r = 0
     for j in joints:
-        xa, qa = _pose(ints[j, BODY_A], position, orientation)
-        xb, qb = _pose(ints[j, BODY_B], position, orientation)
+        xa, qa = body_pose(ints[j, BODY_A], position, orientation)
+        xb, qb = body_pose(ints[j, BODY_B], position, orientation)
         n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, r, active_only)
         for k in range(r, r + n):
             row_joint[k] = j

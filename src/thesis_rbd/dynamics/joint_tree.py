@@ -11,7 +11,7 @@ tridiagonal and costs O(links), a ragdoll's no more than its joints' neighbourho
 "Linear-time dynamics using Lagrange multipliers", SIGGRAPH 1996, eliminates the same tree).
 
 Islands with a closed loop (a four-bar linkage, a body jointed twice to the world) are solved
-densely (``joint_solver._factor``).
+densely, by the same L U as a diagonal block (``lu_in_place``, ``left_solve``).
 
 Layout per island, in elimination order: joint position e has rows ``row_start[e] ..
 row_start[e] + rows[e]`` of the island, and blocks in slots: slot ``self_slot[e]`` is (e, e),
@@ -28,7 +28,14 @@ from scipy.sparse.csgraph import shortest_path
 
 from thesis_rbd._numba.jit import njit
 
-__all__ = ["elimination_order", "factor_tree", "later_neighbours", "solve_tree"]
+__all__ = [
+    "elimination_order",
+    "factor_tree",
+    "later_neighbours",
+    "left_solve",
+    "lu_in_place",
+    "solve_tree",
+]
 
 # A pivot below this fraction of its block's largest entry marks a redundant row.
 _REDUNDANT = 1e-10
@@ -114,9 +121,12 @@ def later_neighbours(a, b, static, island_joints, joint_start):
 
 
 @njit
-def _lu_in_place(D, r):
-    """L U of the r x r leading block of D without pivoting; rows of a vanishing pivot are
-    dropped (returned as False)."""
+def lu_in_place(D, r):
+    """L U of the r x r leading block of D in place, without pivoting (D is J M^-1 J^T taken
+    at two nearby poses, nearly symmetric positive semi-definite). Returns which rows are
+    kept: a row whose pivot vanishes (below ``_REDUNDANT`` of its row's largest entry left of
+    and on the diagonal, as the elimination left it) is redundant, its constraint held by the
+    others, and is dropped."""
     kept = np.ones(r, np.bool_)
     for j in range(r):
         largest = 0.0
@@ -134,8 +144,8 @@ def _lu_in_place(D, r):
 
 
 @njit
-def _left_solve(D, kept, r, x, offset):
-    """x[offset:offset + r] <- D^-1 x[...] with the factor of ``_lu_in_place``."""
+def left_solve(D, kept, r, x, offset):
+    """x[offset:offset + r] <- D^-1 x[...] with the factor of ``lu_in_place``."""
     for i in range(r):
         if not kept[i]:
             x[offset + i] = 0.0
@@ -203,7 +213,7 @@ def factor_tree(rows, self_slot, neighbour, upper, lower, kept):
     p = len(rows)
     for e in range(p):
         s = self_slot[e]
-        kept[e, : rows[e]] = _lu_in_place(upper[s], rows[e])
+        kept[e, : rows[e]] = lu_in_place(upper[s], rows[e])
         for sf in range(s + 1, self_slot[e + 1]):
             f = neighbour[sf]
             _right_divide(upper[s], kept[e], rows[e], lower[sf], rows[f])
@@ -244,4 +254,4 @@ def solve_tree(rows, row_start, self_slot, neighbour, upper, lower, kept, x):
                 for k in range(rows[f]):
                     total += upper[sf, c, k] * x[row_start[f] + k]
                 x[row_start[e] + c] -= total
-        _left_solve(upper[self_slot[e]], kept[e], rows[e], x, row_start[e])
+        left_solve(upper[self_slot[e]], kept[e], rows[e], x, row_start[e])
