@@ -660,3 +660,56 @@ def test_bad_motors_are_refused(motor, error, message):
         world.add_joint("revolute", 0, None, anchor=(0, 0, 0), motor=motor)
     with pytest.raises(ValueError, match="no joint 3"):
         world.set_motor(3, torque=1.0)
+
+
+def test_four_bar_swings_with_the_period_its_inertias_give():
+    """The built-in parallelogram four-bar from 60 deg: the coupler translates without
+    turning, so the linkage is one compound pendulum of inertia 2 I_crank + M L^2 about the
+    pivots and gravity moment (2 m L / 2 + M L) g sin(theta); the mean period over 5 s is
+    within 0.05 % of 4 sqrt(I / (m_eff g)) K(sin^2(theta0 / 2)), the loop gap <= 0.1 mm."""
+    world = rbd.scenes.get("four_bar").build()
+    left, coupler = 0, 2
+    b = world.bodies
+    m, M, length = b.mass[left], b.mass[coupler], 0.4
+    crank_axis = b.inertia_body[left][1, 1] + m * (length / 2) ** 2  # about its pivot
+    inertia = 2 * crank_axis + M * length**2
+    moment = (2 * m * length / 2 + M * length) * G
+    theta0 = np.radians(60)
+    exact = 4 * np.sqrt(inertia / moment) * ellipk(np.sin(theta0 / 2) ** 2)
+    angle, times, gap = [], [], 0.0
+    for _ in range(5 * 240):
+        world.step()
+        tip = world.bodies.position[coupler] - (0.25, 0, 0)
+        angle.append(np.arctan2(tip[0], -tip[2]))
+        times.append(world.time)
+        gap = max(gap, world.joints["gap"].max())
+    angle, times = np.array(angle), np.array(times)
+    up = np.flatnonzero((angle[:-1] < 0) & (angle[1:] >= 0))
+    crossings = times[up] + (times[up + 1] - times[up]) * -angle[up] / (angle[up + 1] - angle[up])
+    assert len(crossings) >= 3
+    assert abs(np.diff(crossings).mean() / exact - 1) <= 5e-4
+    assert gap <= 1e-4
+
+
+@pytest.mark.parametrize(
+    ("group_a", "mask_a", "group_b", "mask_b", "collide"),
+    [(1, 0xFFFF, 1, 0xFFFF, True), (1, 4, 2, 0xFFFF, False), (2, 1, 1, 2, True),
+     (4, 0xFFFF, 1, 3, False), (0, 0xFFFF, 1, 0xFFFF, False)],
+)  # fmt: skip
+def test_collision_groups_and_masks_follow_bullets_rule(group_a, mask_a, group_b, mask_b, collide):
+    """Two overlapping boxes collide only if each one's group shares a bit with the other's
+    mask (checked against the rule written out here)."""
+    world = rbd.World(dt=1 / 240)
+    box = rbd.shapes.box((0.2, 0.2, 0.2))
+    world.add_body(box, collision_group=group_a, collision_mask=mask_a)
+    world.add_body(box, position=(0.15, 0, 0), collision_group=group_b, collision_mask=mask_b)
+    world.step()
+    assert collide == (bool(group_a & mask_b) and bool(group_b & mask_a))
+    assert (len(world.contacts["body_a"]) > 0) == collide
+
+
+@pytest.mark.parametrize("value", [-1, 1.5, True, 2**62])
+def test_bad_collision_groups_are_refused(value):
+    world = rbd.World()
+    with pytest.raises(ValueError, match="collision_group"):
+        world.add_body(rbd.shapes.box(), collision_group=value)

@@ -126,6 +126,8 @@ class BodySpec:
         Immovable body.
     forces : tuple of ForceSpec
         Forces applied from t = 0.
+    collision_group, collision_mask : int
+        Bit fields of :meth:`World.add_body`.
     """
 
     name: str
@@ -141,6 +143,8 @@ class BodySpec:
     friction: float
     static: bool
     forces: tuple[ForceSpec, ...]
+    collision_group: int = 1
+    collision_mask: int = 0xFFFF
 
 
 @dataclass(frozen=True)
@@ -228,6 +232,8 @@ class Scene:
                     friction=body.friction,
                     static=body.static,
                     name=body.name,
+                    collision_group=body.collision_group,
+                    collision_mask=body.collision_mask,
                 )
                 for force in body.forces:
                     world.apply_force(handle, force.force, force.point, force.duration)
@@ -436,6 +442,8 @@ _BODY_KEYS = (
     "restitution",
     "friction",
     "static",
+    "collision_group",
+    "collision_mask",
     "force",
 )
 
@@ -493,6 +501,8 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
         friction=_optional(table, "friction", 0.0, _non_negative_number, where),
         static=static,
         forces=forces,
+        collision_group=_optional(table, "collision_group", 1, _integer, where),
+        collision_mask=_optional(table, "collision_mask", 0xFFFF, _integer, where),
     )
 
 

@@ -98,6 +98,8 @@ class CollisionPipeline:
         self._reach = 0.0
         self._may_pair = np.zeros(0, bool)
         self._static = np.zeros(0, bool)
+        self._group = np.zeros(0, np.int64)
+        self._mask = np.zeros(0, np.int64)
         self._excluded_keys = np.zeros(0, np.int64)
 
     def add_body(self, mesh, center_of_mass_local) -> None:
@@ -126,7 +128,8 @@ class CollisionPipeline:
         ----------
         bodies : BodyArrays
             Their static bodies never pair with each other, their bodies that are not
-            collidable with nothing.
+            collidable with nothing, and two bodies pair only where each one's collision
+            group meets the other's mask.
         reach : float
             Gap (>= 0) that any convex pair gets speculative contacts across, whatever the
             bodies' sizes (see ``convex.contacts``): the world's fall in one step.
@@ -142,6 +145,8 @@ class CollisionPipeline:
         self._reach = float(reach)
         self._static = bodies.static.copy()
         self._may_pair = bodies.collidable.copy()
+        self._group = bodies.collision_group.copy()
+        self._mask = bodies.collision_mask.copy()
         full = bodies.full
         self._center_of_mass_local = full("center_of_mass_local")
         self._size, self._thickness = full("size"), full("thickness")
@@ -212,6 +217,8 @@ class CollisionPipeline:
                 i, j = pairs[:, 0], pairs[:, 1]
                 may, static = self._may_pair, self._static
                 keep = may[i] & may[j] & ~(static[i] & static[j])
+                group, mask = self._group, self._mask
+                keep &= ((group[i] & mask[j]) != 0) & ((group[j] & mask[i]) != 0)
                 if len(self._excluded_keys):
                     keys = np.minimum(i, j) * len(may) + np.maximum(i, j)
                     keep &= ~np.isin(keys, self._excluded_keys)

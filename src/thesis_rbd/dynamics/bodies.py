@@ -79,6 +79,9 @@ class BodyArrays:
         True for immovable bodies.
     collidable : (n,) bool
         False for bodies that take part in no collision (free flight only).
+    collision_group, collision_mask : (n,) int64
+        Bit fields: two bodies collide only if each one's group meets the other's mask
+        (Bullet's rule).
     """
 
     _FIELDS: ClassVar[dict[str, tuple[tuple[int, ...], type]]] = {
@@ -97,6 +100,8 @@ class BodyArrays:
         "friction": ((), np.float64),
         "static": ((), np.bool_),
         "collidable": ((), np.bool_),
+        "collision_group": ((), np.int64),
+        "collision_mask": ((), np.int64),
     }
 
     def __init__(self):

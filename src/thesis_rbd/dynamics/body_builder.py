@@ -49,6 +49,8 @@ def body_fields(
     friction=0.0,
     static=False,
     collidable=True,
+    collision_group=1,
+    collision_mask=0xFFFF,
 ) -> dict:
     """Every ``BodyArrays`` field of one body, validated (see ``World.add_body``).
 
@@ -123,4 +125,15 @@ def body_fields(
         friction=friction,
         static=bool(static),
         collidable=bool(collidable),
+        collision_group=_bits(collision_group, "collision_group"),
+        collision_mask=_bits(collision_mask, "collision_mask"),
     )
+
+
+def _bits(value, name: str) -> int:
+    """A collision group or mask: a non-negative integer that fits in 62 bits."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{name} must be an integer bit field, got {value!r}")
+    if not 0 <= value < 2**62:
+        raise ValueError(f"{name} must lie in [0, 2**62), got {value}")
+    return int(value)

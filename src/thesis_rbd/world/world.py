@@ -257,6 +257,8 @@ class World(WorldReadout, WorldJoints):
         static: bool = False,
         name: str | None = None,
         collidable: bool = True,
+        collision_group: int = 1,
+        collision_mask: int = 0xFFFF,
     ) -> int:
         """Add a body and return its index.
 
@@ -284,10 +286,14 @@ class World(WorldReadout, WorldJoints):
         collidable : bool
             False keeps the body out of collision detection (free flight only); with fewer
             than two collidable bodies the world runs no collision stage at all.
+        collision_group, collision_mask : int
+            Bit fields: two bodies collide only if each one's group shares a bit with the
+            other's mask (Bullet's rule); by default every body is in group 1 and collides
+            with groups 1-16.
         """
         fields = body_fields(
             mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
-            restitution, friction, static, collidable,
+            restitution, friction, static, collidable, collision_group, collision_mask,
         )  # fmt: skip
         index = self.bodies.append(
             mesh, name if name is not None else f"body{self.bodies.count}", **fields
