@@ -53,3 +53,27 @@ def test_elastic_energy_at_least_as_constant_as_pybullet():
     e0 = 9.81 * 1.5
     assert np.abs(ours - e0).max() <= np.abs(theirs - e0).max()
     assert np.abs(ours - e0).max() <= 1e-3 * e0
+
+
+def test_double_pendulum_energy_error_below_pybullets_multibody():
+    """The built-in double pendulum released level: our largest energy error over 1 s and
+    over 5 s is below pybullet's multibody pendulum's (validation/pybullet_joints.py: link
+    damping zeroed, default motors off), and both halve with dt (first order)."""
+    from validation.pybullet_joints import double_pendulum_energy_errors
+
+    def ours(dt):
+        world = rbd.scenes.get("double_pendulum").with_world(dt=dt).build()
+        start = world.kinetic_energy() + world.potential_energy()
+        errors = np.empty(round(5.0 / dt))
+        for k in range(len(errors)):
+            world.step()
+            errors[k] = abs(world.kinetic_energy() + world.potential_energy() - start)
+        return errors
+
+    for dt in (DT, DT / 2):
+        mine, theirs = ours(dt), double_pendulum_energy_errors(dt, 5.0)
+        second = round(1.0 / dt)
+        assert mine[:second].max() < theirs[:second].max()
+        assert mine.max() < theirs.max()
+    coarse, fine = ours(DT).max(), ours(DT / 2).max()
+    assert 1.6 < coarse / fine < 2.4
