@@ -86,6 +86,8 @@ def drive_motors(
                    linear_momentum, angular_momentum, impulse)  # fmt: skip
         elif code != NO_MOTOR:
             sweeps = MOTOR_SWEEPS
+    if sweeps == 0:
+        return
     applied = np.zeros(len(joints))  # each velocity motor's impulse this substep
     for _ in range(sweeps):
         for e in range(len(joints)):

@@ -266,6 +266,10 @@ def project_island(
     K = np.empty((0, 0)) if tree else np.empty((size, size))
     current = np.empty((size, 10))
     step = np.empty(size)
+    spin = np.empty((len(bodies), 3))
+    kept = np.ones(size, np.bool_)
+    factored = False
+    factored_rows = np.zeros(size, np.bool_)  # the rows written when the factor was made
     for _ in range(JOINT_ITERATIONS):
         # the errors where the bodies are now
         _island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
@@ -278,19 +282,35 @@ def project_island(
             step[k] = -current[k, 9]
         if worst <= _TOLERANCE:
             break
-        # Newton on the impulses: how the errors now change along the start directions
+        # Newton on the impulses: how the errors change along the start directions, from
+        # the first iterate's rows (later iterates move by round-off of the step's
+        # correction, so the first factor serves them all, unless a limit was reached or
+        # left on the way: its row then joins or leaves the matrix)
+        for k in range(size):
+            written = current[k, 3] != 0.0 or current[k, 4] != 0.0 or current[k, 5] != 0.0
+            written = written or current[k, 0] != 0.0 or current[k, 1] != 0.0
+            written = written or current[k, 2] != 0.0
+            if written != factored_rows[k]:
+                factored = False
+            factored_rows[k] = written
         if tree:
-            _tree_solve(layout, ints, row_joint, current, moved, step)
+            if not factored:
+                _tree_factor(layout, ints, row_joint, current, moved)
+            rows_of, row_start, self_slot, slot_neighbour, upper, lower, kept_blocks = layout
+            solve_tree(rows_of, row_start, self_slot, slot_neighbour, upper, lower, kept_blocks,
+                       step)  # fmt: skip
         else:
-            for i in range(size):
-                for k in range(size):
-                    K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
-            kept = lu_in_place(K, size)
+            if not factored:
+                for i in range(size):
+                    for k in range(size):
+                        K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
+                kept = lu_in_place(K, size)
             left_solve(K, kept, size, step, 0)
+        factored = True
         # the rows' turns summed per body before any is applied: they cancel in large part
         # (a point row turns a light ball about its centre as much as its limit row turns
         # it back), which turning row by row would not do
-        spin = np.zeros((len(bodies), 3))
+        spin[:] = 0.0
         for k in range(size):
             lam = step[k]
             j = row_joint[k]
@@ -354,8 +374,8 @@ def _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree):
 
 
 @njit
-def _tree_solve(layout, ints, row_joint, current, moved, step):
-    """Solve (J_now M^-1 J_start^T) x = step in place through ``joint_tree``."""
+def _tree_factor(layout, ints, row_joint, current, moved):
+    """The blocks of J_now M^-1 J_start^T in the layout, factorised by ``joint_tree``."""
     rows, row_start, self_slot, slot_neighbour, upper, lower, kept = layout
     for e in range(len(rows)):
         for s in range(self_slot[e], self_slot[e + 1]):
@@ -364,9 +384,9 @@ def _tree_solve(layout, ints, row_joint, current, moved, step):
                 for k in range(rows[f]):
                     ri, rk = row_start[e] + i, row_start[f] + k
                     upper[s, i, k] = _coupling(ints, row_joint, current, moved, ri, rk)
-                    lower[s, k, i] = _coupling(ints, row_joint, current, moved, rk, ri)
+                    if f != e:
+                        lower[s, k, i] = _coupling(ints, row_joint, current, moved, rk, ri)
     factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
-    solve_tree(rows, row_start, self_slot, slot_neighbour, upper, lower, kept, step)
 
 
 @njit
