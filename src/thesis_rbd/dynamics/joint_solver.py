@@ -16,7 +16,9 @@ sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep
   momenta as dlam / h, so the velocities are the substep's displacement over h (projecting
   positions alone loses (h w)^2 of the kinetic energy per step, and directions taken at the
   end of the substep lose energy too). Iterations stop once every row holds to 1e-12 of the
-  joint's scale (1e-12 rad for angular rows).
+  joint's scale (1e-12 rad for angular rows). The matrix is made and factorised at the first
+  iterate only (later ones differ from it by the correction's round-off), and again where a
+  limit is reached or left on the way.
 
 The Newton matrix is factorised as L U with rows of a vanishing pivot dropped
 (``joint_tree``): block by block in linear time where the island is a tree, whole where it has
@@ -47,18 +49,16 @@ __all__ = [
     "step_jointed_bodies",
 ]
 
-# Most Newton iterations per island and substep (quadratic convergence needs 2-4).
+# Most Newton iterations per island and substep (two to four hold the rows to round-off).
 JOINT_ITERATIONS = 8
 # The largest h w (substep times the stiffest link's sideways frequency) the automatic
-# substeps allow: a 1:100 chain released horizontal diverges at h w ~ 0.9 and holds to 1e-10
-# mm at 0.45.
+# substeps allow: the projection cannot follow a link whose h w nears 1 (a light chain under
+# a heavy load diverges there).
 _STIFF_STEP = 0.4
 # Most substeps of a step.
 MOST_SUBSTEPS = 64
 # Rows hold once |C| is at most this fraction of the joint's scale (or in radians).
 _TOLERANCE = 1e-12
-# A pivot below this fraction of its row's diagonal marks a redundant row.
-_REDUNDANT = 1e-10
 
 
 @njit
