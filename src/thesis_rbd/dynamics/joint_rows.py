@@ -223,10 +223,10 @@ def _along_axis(kind, f, xa, qa, xb, qb, ra, gap):
 
 @njit(allocates=False)
 def axis_row(kind, f, xa, qa, xb, qb):
-    """(lin, ang_a, ang_b) of a hinge's or slider's motion along its axis (its motor's row)."""
+    """(lin, ang_a, ang_b, position) of a hinge's or slider's motion along its axis (its
+    motor's row), and the joint's position."""
     ra, _, gap = _frames(f, xa, qa, xb, qb)
-    lin, ang_a, ang_b, _ = _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
-    return lin, ang_a, ang_b
+    return _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
 
 
 @njit(allocates=False)

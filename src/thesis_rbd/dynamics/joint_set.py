@@ -15,7 +15,9 @@ bodies' own frames at creation, so the joint is zero where it was made:
   tolerance its gap is solved to;
 * the limits of a hinge's angle (rad) or a slider's travel (m), -inf and inf where none;
 * its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
-  or force it may use, or a set torque (N m) or force (N).
+  or force it may use, a set torque (N m) or force (N), a position target with stiffness
+  (N m/rad or N/m) and damping (N m s/rad or N s/m), or a servo (a position target held
+  rigidly, with the most torque or force and speed it may use).
 
 Body b is -1 for the world. Kinds and the constraint rows each one holds (``joint_rows``):
 
@@ -56,10 +58,11 @@ RELATIVE_ORIENTATION = 18
 LENGTH = 22
 SCALE = 23
 LOWER, UPPER = 24, 25
-MOTOR, MOTOR_TARGET, MOTOR_MAX = 26, 27, 28
-JOINT_FLOATS = 29
-# Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque.
-NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR = 0, 1, 2
+MOTOR, MOTOR_TARGET, MOTOR_MAX, MOTOR_STIFFNESS, MOTOR_DAMPING, MOTOR_SPEED = range(26, 32)
+JOINT_FLOATS = 32
+# Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque, a
+# position target with stiffness and damping, a servo (the position held as a constraint).
+NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
 # Kinds whose position (a hinge's angle, a slider's travel) limits bound.
 _LIMITED_KINDS = ("revolute", "prismatic")
 # Columns of ``JointSet.ints``.
@@ -108,10 +111,11 @@ def _limits(kind: str, limits) -> tuple[float, float]:
     return lower, upper
 
 
-def _motor(kind: str, motor) -> tuple[float, float, float]:
-    """(code, target, cap) of a motor given as World.add_joint's ``motor`` (None: none)."""
+def _motor(kind: str, motor) -> tuple[float, ...]:
+    """(code, target, cap, stiffness, damping, speed) of a motor given as World.add_joint's
+    ``motor`` (None: none)."""
     if motor is None:
-        return NO_MOTOR, 0.0, 0.0
+        return NO_MOTOR, 0.0, 0.0, 0.0, 0.0, 0.0
     if not isinstance(motor, dict):
         raise ValueError(f"motor must be a dict such as {{'velocity': 1.0, 'max_force': 2.0}}, "
                          f"got {motor!r}")  # fmt: skip
@@ -119,31 +123,50 @@ def _motor(kind: str, motor) -> tuple[float, float, float]:
         raise NotImplementedError(
             f"motors on {kind!r} joints are not built yet; motors drive {_LIMITED_KINDS} joints"
         )
-    if "position" in motor or "servo" in motor:
-        raise NotImplementedError(
-            "position and servo motors are not built yet; use {'velocity': v, 'max_force': f} "
-            "or {'torque': t}"
-        )
     keys = set(motor)
     if keys == {"velocity", "max_force"}:
-        velocity = _finite(motor["velocity"], "motor velocity")
-        cap = _finite(motor["max_force"], "motor max_force")
-        if cap < 0.0:
-            raise ValueError(f"motor max_force must be >= 0, got {cap}")
-        return VELOCITY_MOTOR, velocity, cap
+        return (VELOCITY_MOTOR, _finite(motor["velocity"], "motor velocity"),
+                _cap(motor, "max_force"), 0.0, 0.0, 0.0)  # fmt: skip
     if keys == {"torque"}:
-        return TORQUE_MOTOR, _finite(motor["torque"], "motor torque"), 0.0
-    raise ValueError(f"motor {motor!r}: give {{'velocity': v, 'max_force': f}} or {{'torque': t}}")
+        return TORQUE_MOTOR, _finite(motor["torque"], "motor torque"), 0.0, 0.0, 0.0, 0.0
+    if {"position", "stiffness", "damping"} <= keys <= {"position", "stiffness", "damping",
+                                                        "max_force"}:  # fmt: skip
+        return (POSITION_MOTOR, _target(kind, motor["position"], "position"),
+                _cap(motor, "max_force"), _cap(motor, "stiffness"), _cap(motor, "damping"),
+                0.0)  # fmt: skip
+    if {"servo"} <= keys <= {"servo", "max_force", "max_velocity"}:
+        return (SERVO_MOTOR, _target(kind, motor["servo"], "servo"), _cap(motor, "max_force"),
+                0.0, 0.0, _cap(motor, "max_velocity"))  # fmt: skip
+    raise ValueError(
+        f"motor {motor!r}: give {{'velocity': v, 'max_force': f}}, {{'torque': t}}, "
+        "{'position': q, 'stiffness': k, 'damping': c[, 'max_force': f]} or "
+        "{'servo': q[, 'max_force': f, 'max_velocity': w]}"
+    )
 
 
-def _finite(value, name: str) -> float:
+def _cap(motor: dict, key: str) -> float:
+    """A motor's non-negative gain or cap; inf where a cap is not given."""
+    value = _finite(motor[key], f"motor {key}", allow_inf=True) if key in motor else np.inf
+    if value < 0.0:
+        raise ValueError(f"motor {key} must be >= 0, got {value}")
+    return value
+
+
+def _target(kind: str, value, key: str) -> float:
+    target = _finite(value, f"motor {key}")
+    if kind == "revolute" and not -np.pi <= target <= np.pi:
+        raise ValueError(f"a hinge's motor {key} lies in [-pi, pi] (its angle), got {target}")
+    return target
+
+
+def _finite(value, name: str, allow_inf: bool = False) -> float:
     if isinstance(value, bool):
         raise ValueError(f"{name} must be a number, got {value!r}")
     try:
         number = float(value)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a number, got {value!r}") from exc
-    if not np.isfinite(number):
+    if np.isnan(number) or (np.isinf(number) and not (allow_inf and number > 0)):
         raise ValueError(f"{name} must be finite, got {number}")
     return number
 
@@ -231,7 +254,7 @@ class JointSet:
         row[LENGTH] = rod
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
-        row[MOTOR : MOTOR + 3] = _motor(kind, options.get("motor"))
+        row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
         self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
         self.floats = np.vstack([self.floats, row])
         self.collide = np.append(self.collide, bool(collide))
@@ -248,7 +271,7 @@ class JointSet:
         if not 0 <= index < len(self):
             raise ValueError(f"no joint {index}; the world has {len(self)} joints")
         kind = list(JOINT_KINDS)[self.ints[index, KIND]]
-        self.floats[index, MOTOR : MOTOR + 3] = _motor(kind, motor)
+        self.floats[index, MOTOR : MOTOR + 6] = _motor(kind, motor)
 
     @staticmethod
     def _body(body, field, bodies, allow_world) -> int:

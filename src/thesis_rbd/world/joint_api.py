@@ -46,9 +46,12 @@ class WorldJoints:
             held at the end of every substep (no overshoot, no bounce).
         motor : dict, optional
             A hinge's or slider's motor, SI units: ``{"velocity": v, "max_force": f}`` drives
-            its rate towards v (rad/s or m/s) with at most f (N m or N), ``{"torque": t}``
-            pushes with t (N m or N) about / along +axis. Position and servo motors are not
-            built yet.
+            its rate towards v (rad/s or m/s) with at most f (N m or N); ``{"torque": t}``
+            pushes with t (N m or N) about / along +axis; ``{"position": q, "stiffness": k,
+            "damping": c, "max_force": f}`` pulls towards q through a spring (N m/rad or
+            N/m) and damper (N m s/rad or N s/m); ``{"servo": q, "max_force": f,
+            "max_velocity": w}`` holds q as a constraint within f and w. Caps left out are
+            unlimited.
         spring, damping, friction
             Not built yet: leave them out (a clear error says so).
         collide : bool
