@@ -370,6 +370,7 @@ _BAD_JOINTS = {
     "lie in \\[-pi, pi\\]": dict(kind="revolute", limits=(-4.0, 0.0)),
     "limits must be \\(lower, upper\\)": dict(kind="prismatic", limits=(1.0,)),
     "limits must be numbers": dict(kind="prismatic", limits=(np.nan, 1.0)),
+    "joint name must be a non-empty string": dict(name=""),
 }
 
 

@@ -255,12 +255,13 @@ class JointSet:
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
         row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
+        if name is not None and (not isinstance(name, str) or not name or "\0" in name):
+            raise ValueError(f"joint name must be a non-empty string, got {name!r}")
+        # every check is done: nothing half-added is left when one fails
+        index = len(self.names)
         self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
         self.floats = np.vstack([self.floats, row])
         self.collide = np.append(self.collide, bool(collide))
-        index = len(self.names)
-        if name is not None and (not isinstance(name, str) or not name or "\0" in name):
-            raise ValueError(f"joint name must be a non-empty string, got {name!r}")
         self.names.append(name if name is not None else f"joint{index}")
         return index
 
