@@ -33,7 +33,15 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.integrators import angular_velocity
-from thesis_rbd.dynamics.joint_rows import axis_row, body_pose, joint_rows
+from thesis_rbd.dynamics.joint_rows import (
+    axis_row,
+    body_pose,
+    joint_rows,
+    row_coupling,
+    row_responses,
+    row_written,
+    write_row,
+)
 from thesis_rbd.dynamics.joint_set import (
     BODY_A,
     BODY_B,
@@ -125,28 +133,15 @@ def _motor_rows(j, ints, floats, frozen, position, orientation, inverse_mass,
     xa, qa = body_pose(a, position, orientation)
     xb, qb = body_pose(b, position, orientation)
     lin, ang_a, ang_b, place = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
-    for c in range(3):
-        rows[0, c], rows[0, 3 + c], rows[0, 6 + c] = lin[c], ang_a[c], ang_b[c]
+    write_row(rows, 0, lin, ang_a, ang_b, 0.0)
     n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, 1, True)
     count = 0
     for k in range(n + 1):  # rows written as zero (limits not reached) are left out
-        if np.any(rows[k, :9] != 0.0):
+        if row_written(rows, k):
             rows[count] = rows[k]
             count += 1
-    for k in range(count):
-        for side in range(2):
-            body = ints[j, BODY_A + side]
-            if body < 0 or frozen[body]:
-                moved[k, 6 * side : 6 * side + 6] = 0.0
-                continue
-            q = orientation[body]
-            sign = 1.0 if side == 0 else -1.0
-            a3 = rows[k, 3 + 3 * side : 6 + 3 * side]
-            turn = angular_velocity((q[0], q[1], q[2], q[3]), (a3[0], a3[1], a3[2]),
-                                    inverse_inertia_body[body])  # fmt: skip
-            for c in range(3):
-                moved[k, 6 * side + c] = sign * inverse_mass[body] * rows[k, c]
-                moved[k, 6 * side + 3 + c] = turn[c]
+    row_responses(rows, np.full(count, j), count, ints, frozen, orientation, inverse_mass,
+                  inverse_inertia_body, moved)  # fmt: skip
     return count, place
 
 
@@ -157,15 +152,10 @@ def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orient
     joint rows' reaction per unit motor impulse: the motor turns a hinged body about the
     hinge (its inertia about the axis through the anchor), not about its own centre."""
     A = np.empty((count, count))
+    row_joint = np.full(count, j)
     for i in range(count):
         for k in range(count):
-            total = 0.0
-            for side in range(2):
-                sign = 1.0 if side == 0 else -1.0
-                for c in range(3):
-                    total += sign * rows[i, c] * moved[k, 6 * side + c]
-                    total += rows[i, 3 + 3 * side + c] * moved[k, 6 * side + 3 + c]
-            A[i, k] = total
+            A[i, k] = row_coupling(ints, row_joint, rows, moved, i, k)
     speeds = np.empty(count)
     for k in range(count):
         speeds[k] = 0.0
@@ -243,8 +233,7 @@ def _apply(j, lam, ints, floats, frozen, position, orientation, linear_momentum,
     xa, qa = body_pose(ints[j, BODY_A], position, orientation)
     xb, qb = body_pose(ints[j, BODY_B], position, orientation)
     lin, ang_a, ang_b, _ = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
-    row = np.zeros(10)
-    for c in range(3):
-        row[c], row[3 + c], row[6 + c] = lin[c], ang_a[c], ang_b[c]
-    _push(j, lam, row, ints, frozen, linear_momentum, angular_momentum, impulse)
+    row = np.empty((1, 10))
+    write_row(row, 0, lin, ang_a, ang_b, 0.0)
+    _push(j, lam, row[0], ints, frozen, linear_momentum, angular_momentum, impulse)
     impulse[j, 6] += lam

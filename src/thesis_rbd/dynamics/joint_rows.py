@@ -33,12 +33,14 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd.dynamics.integrators import angular_velocity
 from thesis_rbd.dynamics.joint_set import (
     ARM_A,
     ARM_B,
     AXIS_A,
     AXIS_B,
     BINORMAL_B,
+    BODY_A,
     JOINT_KINDS,
     LENGTH,
     LOWER,
@@ -55,6 +57,10 @@ __all__ = [
     "joint_row_count",
     "joint_rows",
     "read_joints",
+    "row_coupling",
+    "row_responses",
+    "row_written",
+    "write_row",
 ]
 
 SPHERICAL = JOINT_KINDS["spherical"]
@@ -89,7 +95,7 @@ def _vector(f, start):
 
 
 @njit(allocates=False)
-def _write(rows, k, lin, ang_a, ang_b, error):
+def write_row(rows, k, lin, ang_a, ang_b, error):
     """Row k of ``rows`` (r, 10): lin (3), ang_a (3), ang_b (3), error."""
     for i in range(3):
         rows[k, i] = lin[i]
@@ -161,7 +167,7 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
         d = (1.0, 0.0, 0.0) if length == 0.0 else (gap[0] / length, gap[1] / length,
                                                   gap[2] / length)  # fmt: skip
         rbn = _cross(rb, d)
-        _write(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), length - f[LENGTH])
+        write_row(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), length - f[LENGTH])
         return 1
     if kind == PRISMATIC:
         # b's line through its anchor: the offset across it, acting at p_a on both bodies
@@ -169,27 +175,27 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
         for column in (NORMAL_B, BINORMAL_B):
             d = rotate(qb, _vector(f, column))
             across = _cross(arm, d)
-            _write(rows, k, d, _cross(ra, d), (-across[0], -across[1], -across[2]),
+            write_row(rows, k, d, _cross(ra, d), (-across[0], -across[1], -across[2]),
                    _dot(gap, d))  # fmt: skip
             k += 1
     else:
         for axis in range(3):
             d = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
             rbn = _cross(rb, d)
-            _write(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), gap[axis])
+            write_row(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), gap[axis])
             k += 1
     if kind == REVOLUTE:
         a = rotate(qa, _vector(f, AXIS_A))
         for column in (NORMAL_B, BINORMAL_B):
             n = rotate(qb, _vector(f, column))
             t = _cross(a, n)
-            _write(rows, k, zero, t, (-t[0], -t[1], -t[2]), _dot(a, n))
+            write_row(rows, k, zero, t, (-t[0], -t[1], -t[2]), _dot(a, n))
             k += 1
     elif kind == FIXED or kind == PRISMATIC:
         theta = _orientation_error(f, qa, qb)
         for axis in range(3):
             e = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
-            _write(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
+            write_row(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
             k += 1
     if f[LOWER] > -math.inf or f[UPPER] < math.inf:
         _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only)
@@ -204,9 +210,9 @@ def _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only):
     beyond = position - f[LOWER] if position < f[LOWER] else max(position - f[UPPER], 0.0)
     if active_limits_only and beyond == 0.0:
         zero = (0.0, 0.0, 0.0)
-        _write(rows, k, zero, zero, zero, 0.0)
+        write_row(rows, k, zero, zero, zero, 0.0)
     else:
-        _write(rows, k, lin, ang_a, ang_b, beyond)
+        write_row(rows, k, lin, ang_a, ang_b, beyond)
 
 
 @njit(allocates=False)
@@ -314,3 +320,57 @@ def _state(body, position, orientation, velocity, angular_velocity):
         _vector(velocity[body], 0),
         _vector(angular_velocity[body], 0),
     )
+
+
+@njit
+def row_responses(rows, row_joint, count, ints, frozen, orientation, inverse_mass,
+                  inverse_inertia_body, moved):  # fmt: skip
+    """M^-1 J^T of rows[:count] (row k of joint row_joint[k]) into moved (c, 12): the
+    (dx, dtheta) of body a, then of body b, per unit impulse along the row (zero for the
+    world and frozen bodies), inverse inertias at the orientations given."""
+    for k in range(count):
+        j = row_joint[k]
+        for side in range(2):
+            body = ints[j, BODY_A + side]
+            if body < 0 or frozen[body]:
+                for c in range(6):
+                    moved[k, 6 * side + c] = 0.0
+                continue
+            q = orientation[body]
+            sign = 1.0 if side == 0 else -1.0
+            a = rows[k, 3 + 3 * side : 6 + 3 * side]
+            turn = angular_velocity(
+                (q[0], q[1], q[2], q[3]), (a[0], a[1], a[2]), inverse_inertia_body[body]
+            )
+            for c in range(3):
+                moved[k, 6 * side + c] = sign * inverse_mass[body] * rows[k, c]
+                moved[k, 6 * side + 3 + c] = turn[c]
+
+
+@njit
+def row_coupling(ints, row_joint, rows, moved, i, k):
+    """J_i M^-1 J_k^T over the bodies rows i and k share (``moved`` from
+    ``row_responses``)."""
+    total = 0.0
+    ji, jk = row_joint[i], row_joint[k]
+    for side_i in range(2):
+        body = ints[ji, BODY_A + side_i]
+        if body < 0:
+            continue
+        sign = 1.0 if side_i == 0 else -1.0
+        for side_k in range(2):
+            if ints[jk, BODY_A + side_k] != body:
+                continue
+            for c in range(3):
+                total += sign * rows[i, c] * moved[k, 6 * side_k + c]
+                total += rows[i, 3 + 3 * side_i + c] * moved[k, 6 * side_k + 3 + c]
+    return total
+
+
+@njit
+def row_written(rows, k):
+    """Whether row k acts (a limit row not reached is written as zero)."""
+    for c in range(9):
+        if rows[k, c] != 0.0:
+            return True
+    return False

@@ -34,9 +34,16 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
-from thesis_rbd.dynamics.integrators import angular_velocity, body_forces
+from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_motors import drive_motors
-from thesis_rbd.dynamics.joint_rows import body_pose, joint_row_count, joint_rows
+from thesis_rbd.dynamics.joint_rows import (
+    body_pose,
+    joint_row_count,
+    joint_rows,
+    row_coupling,
+    row_responses,
+    row_written,
+)
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
 from thesis_rbd.dynamics.joint_tree import factor_tree, left_solve, lu_in_place, solve_tree
 from thesis_rbd.spatial.quaternion import mul, normalize
@@ -117,6 +124,7 @@ def step_jointed_bodies(
                     start_position[i, k] = position[i, k]
                 for k in range(4):
                     start_orientation[i, k] = orientation[i, k]
+        first, last = joint_start[island], joint_start[island + 1]
         for _ in range(parts):
             for i in bodies:
                 _kick(
@@ -131,7 +139,6 @@ def step_jointed_bodies(
             for i in bodies:
                 _drift(i, h, position, orientation, linear_momentum, angular_momentum,
                        inverse_mass, inverse_inertia_body)  # fmt: skip
-            first, last = joint_start[island], joint_start[island + 1]
             project_island(
                 h, joints, bodies, island_tree[island], neighbour_start[first : last + 1],
                 neighbour, ints, floats, frozen, substep_position, substep_orientation,
@@ -243,25 +250,9 @@ def project_island(
     rows = np.empty((size, 10))
     row_joint = np.empty(size, np.int64)
     _island_rows(joints, ints, floats, saved_position, saved_orientation, rows, row_joint, False)
-    moved = np.empty((size, 12))  # (dx, dtheta) of a, then of b
-    for k in range(size):
-        j = row_joint[k]
-        for side in range(2):
-            body = ints[j, BODY_A + side]
-            sign = 1.0 if side == 0 else -1.0
-            if body < 0 or frozen[body]:
-                for c in range(6):
-                    moved[k, 6 * side + c] = 0.0
-                continue
-            im = inverse_mass[body]
-            q = saved_orientation[body]
-            a = rows[k, 3 + 3 * side : 6 + 3 * side]
-            turn = angular_velocity(
-                (q[0], q[1], q[2], q[3]), (a[0], a[1], a[2]), inverse_inertia_body[body]
-            )
-            for c in range(3):
-                moved[k, 6 * side + c] = sign * im * rows[k, c]
-                moved[k, 6 * side + 3 + c] = turn[c]
+    moved = np.empty((size, 12))
+    row_responses(rows, row_joint, size, ints, frozen, saved_orientation, inverse_mass,
+                  inverse_inertia_body, moved)  # fmt: skip
     layout = _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree)
     K = np.empty((0, 0)) if tree else np.empty((size, size))
     current = np.empty((size, 10))
@@ -287,9 +278,7 @@ def project_island(
         # correction, so the first factor serves them all, unless a limit was reached or
         # left on the way: its row then joins or leaves the matrix)
         for k in range(size):
-            written = current[k, 3] != 0.0 or current[k, 4] != 0.0 or current[k, 5] != 0.0
-            written = written or current[k, 0] != 0.0 or current[k, 1] != 0.0
-            written = written or current[k, 2] != 0.0
+            written = row_written(current, k)
             if written != factored_rows[k]:
                 factored = False
             factored_rows[k] = written
@@ -303,7 +292,7 @@ def project_island(
             if not factored:
                 for i in range(size):
                     for k in range(size):
-                        K[i, k] = _coupling(ints, row_joint, current, moved, i, k)
+                        K[i, k] = row_coupling(ints, row_joint, current, moved, i, k)
                 kept = lu_in_place(K, size)
             left_solve(K, kept, size, step, 0)
         factored = True
@@ -383,9 +372,9 @@ def _tree_factor(layout, ints, row_joint, current, moved):
             for i in range(rows[e]):
                 for k in range(rows[f]):
                     ri, rk = row_start[e] + i, row_start[f] + k
-                    upper[s, i, k] = _coupling(ints, row_joint, current, moved, ri, rk)
+                    upper[s, i, k] = row_coupling(ints, row_joint, current, moved, ri, rk)
                     if f != e:
-                        lower[s, k, i] = _coupling(ints, row_joint, current, moved, rk, ri)
+                        lower[s, k, i] = row_coupling(ints, row_joint, current, moved, rk, ri)
     factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
 
 
@@ -401,22 +390,3 @@ def _island_rows(joints, ints, floats, position, orientation, rows, row_joint, a
         for k in range(r, r + n):
             row_joint[k] = j
         r += n
-
-
-@njit
-def _coupling(ints, row_joint, rows, moved, i, k):
-    """K[i, k] = J_i M^-1 J_k^T over the bodies rows i and k share."""
-    total = 0.0
-    ji, jk = row_joint[i], row_joint[k]
-    for side_i in range(2):
-        body = ints[ji, BODY_A + side_i]
-        if body < 0:
-            continue
-        sign = 1.0 if side_i == 0 else -1.0
-        for side_k in range(2):
-            if ints[jk, BODY_A + side_k] != body:
-                continue
-            for c in range(3):
-                total += sign * rows[i, c] * moved[k, 6 * side_k + c]
-                total += rows[i, 3 + 3 * side_i + c] * moved[k, 6 * side_k + 3 + c]
-    return total
