@@ -15,9 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import thesis_rbd as rbd
 from tests.chromium import HeadlessChromium, canvas_rect, hide_notifications, require_chromium
+from tests.viser_recording import recording
 from thesis_rbd.viz.live import (
     FALLING_BEHIND_SECONDS,
+    LiveView,
     PlaybackClock,
     _DroppedConnectionFilter,
     stage_timings,
@@ -80,6 +83,35 @@ def test_only_connections_closed_before_a_request_are_left_unreported():
     assert keep(handshake_record(ValueError("invalid Sec-WebSocket-Key")))
     other = logging.LogRecord("websockets.server", logging.ERROR, "", 0, "boom", (), None)
     assert keep(other)
+
+
+# ---------------------------------------------------------------------- joints
+def test_view_draws_the_joints_on_their_bodies_and_frames_the_hinge():
+    """The pendulum's view: the hinge's dot and axis on the ball (children of its node, in its
+    frame) and on the world, and a camera aimed between the hinge and the ball (the ball alone
+    would fill the view)."""
+    view = LiveView(rbd.scenes.get("pendulum"), port=0, playing=False)
+    try:
+        record = recording(view.server.get_scene_serializer().as_html())
+        points = {
+            m["name"]: m["props"]["points"].reshape(-1, 3)
+            for _, m in record["messages"]
+            if m["type"] in ("PointCloudMessage", "LineSegmentsMessage") and "joint" in m["name"]
+        }
+        look_at = np.array(view.server.initial_camera.look_at)
+    finally:
+        view.close()
+    assert set(points) == {
+        "/bodies/0_ball/joint_anchors", "/bodies/0_ball/joint_axes",
+        "/joint_anchors", "/joint_axes",
+    }  # fmt: skip
+    np.testing.assert_allclose(points["/bodies/0_ball/joint_anchors"], [[-1.0, 0.0, 0.0]])
+    np.testing.assert_allclose(points["/joint_anchors"], [[0.0, 0.0, 0.0]])
+    for node, anchor in (("/bodies/0_ball/joint_axes", -1.0), ("/joint_axes", 0.0)):
+        segment = points[node]
+        np.testing.assert_allclose(segment[:, [0, 2]], [[anchor, 0.0], [anchor, 0.0]])
+        assert segment[0, 1] < 0.0 < segment[1, 1]
+    assert look_at[0] == pytest.approx(0.51, abs=0.01)
 
 
 # ---------------------------------------------------------------------- the command

@@ -211,6 +211,44 @@ def test_page_without_contacts_never_shows_them(trajectory):
     )
 
 
+# ---------------------------------------------------------------------- joints
+def test_page_draws_each_joint_on_its_body_and_on_the_world():
+    """The pendulum's hinge (anchor at the origin, axis y): a dot and an axis segment on the
+    ball, in its frame (a child of its node, which viser moves with it), and on the world. At
+    every kept frame the ball's recorded pose carries its dot onto the hinge and its segment
+    onto the world's."""
+    run = rbd.simulate(rbd.scenes.get("pendulum").build(), 0.5)
+    record = recording(render_html(run, fps=30))
+    ball = "/bodies/0_ball"
+
+    def drawn(kind, node):
+        (props,) = [m["props"] for _, m in record["messages"] if m["type"] == kind
+                    and m["name"] == node]  # fmt: skip
+        return props["points"].reshape(-1, 3)
+
+    np.testing.assert_allclose(drawn("PointCloudMessage", "/joint_anchors"), [[0.0, 0.0, 0.0]])
+    world_axis = drawn("LineSegmentsMessage", "/joint_axes")
+    np.testing.assert_allclose(world_axis[:, [0, 2]], 0.0)
+    assert world_axis[0, 1] == pytest.approx(-world_axis[1, 1]) and world_axis[1, 1] > 0
+    np.testing.assert_allclose(drawn("PointCloudMessage", f"{ball}/joint_anchors"), [[-1, 0, 0]])
+    ball_axis = drawn("LineSegmentsMessage", f"{ball}/joint_axes")
+    positions = [(0.0, [0.0, 0.0, 0.0])] + node_values(
+        record, "SetPositionMessage", ball, "position"
+    )
+    orientations = node_values(record, "SetOrientationMessage", ball, "wxyz")
+    for frame in playback_frames(run.times, 30)[1:]:
+        t = run.times[frame] - run.times[0]
+        pose = Rotation.from_quat(xyzw_from_wxyz(np.array(value_at(orientations, t))))
+        place = np.asarray(value_at(positions, t))
+        np.testing.assert_allclose(pose.apply([-1.0, 0.0, 0.0]) + place, 0.0, atol=1e-6)
+        np.testing.assert_allclose(pose.apply(ball_axis) + place, world_axis, atol=1e-6)
+
+
+def test_page_without_joints_draws_none(trajectory):
+    record = recording(render_html(trajectory))
+    assert not [m["name"] for _, m in record["messages"] if "joint" in m.get("name", "")]
+
+
 # ---------------------------------------------------------------------- in a browser
 def camera_rays(rect, lower, upper, pixels):
     """World rays through (k, 2) pixel (x, y) of the canvas, as viser's camera sees them."""

@@ -230,6 +230,7 @@ def test_projectile_drag_shortens_the_flight():
 
 # ---------------------------------------------------------------------- faults, named
 BOX = 'shape = { type = "box", extents = [1.0, 1.0, 1.0] }'
+JOINT = '[[joint]]\nkind = "revolute"\nbody_a = "a"\nanchor = [0, 0, 0]\n'
 
 FAULTS = {
     "unknown shape": (
@@ -327,6 +328,22 @@ FAULTS = {
     ),
     "negative seconds": ("seconds = -2\n", ["top level", "field 'seconds'", "must be > 0"]),
     "invalid TOML": ("[world\ndt = 1\n", ["not valid TOML", "line 1"]),
+    "one limit": (
+        f'[[body]]\nname = "a"\n{BOX}\n{JOINT}limits = [1.0]\n',
+        ["joint[0]", "field 'limits'", "must be [lower, upper]"],
+    ),
+    "limit not a number": (
+        f'[[body]]\nname = "a"\n{BOX}\n{JOINT}limits = [nan, 1.0]\n',
+        ["joint[0]", "field 'limits'", "two numbers"],
+    ),
+    "unknown motor key": (
+        f'[[body]]\nname = "a"\n{BOX}\n{JOINT}motor = {{ speed = 1.0 }}\n',
+        ["joint[0]", "field 'motor'", "unknown motor key 'speed'", "velocity"],
+    ),
+    "motor value not a number": (
+        f'[[body]]\nname = "a"\n{BOX}\n{JOINT}motor = {{ velocity = "fast" }}\n',
+        ["joint[0]", "field 'motor.velocity'", "must be a number"],
+    ),
 }
 
 
@@ -437,3 +454,33 @@ def test_a_scene_file_with_a_byte_order_mark_loads(tmp_path):
     path = tmp_path / "bom.toml"
     path.write_bytes(b"\xef\xbb\xbf" + b'[[body]]\nshape = { type = "box" }\n')
     assert len(rbd.load_scene(path).bodies) == 1
+
+
+# ---------------------------------------------------------------------- jointed built-ins
+def test_door_stops_dead_at_its_hinge_limit():
+    """The door swings at 4.3 rad/s (1 degree per step) into its 100 degree limit: at no step
+    past it by more than 0.6 degrees, and at rest within 0.01 degrees of it."""
+    scene = rbd.scenes.get("door")
+    world = scene.build()
+    angles = []
+    for _ in range(round(scene.seconds / world.dt)):
+        world.step()
+        angles.append(world.joints["position"][0])
+    degrees = np.degrees(angles)
+    assert degrees[0] == pytest.approx(np.degrees(4.3 * world.dt), rel=1e-3)  # 1 degree a step
+    assert degrees.max() <= 100.0 + 0.6
+    assert abs(degrees[-1] - 100.0) <= 0.01
+    assert abs(world.joints["velocity"][0]) < 1e-9
+
+
+def test_slider_motor_reaches_its_target_at_its_force_cap():
+    """1 kg pushed with the motor's 2 N cap accelerates at 2 m/s^2: 99 % of the 1 m/s target
+    at 0.495 s (within 1 %), and never more than 0.1 % over it."""
+    world = rbd.scenes.get("slider").build()
+    speeds = []
+    for _ in range(round(1.0 / world.dt)):
+        world.step()
+        speeds.append(world.joints["velocity"][0])
+    speeds = np.array(speeds)
+    assert (np.argmax(speeds >= 0.99) + 1) * world.dt == pytest.approx(0.495, rel=0.01)
+    assert speeds.max() <= 1.001

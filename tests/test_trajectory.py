@@ -289,3 +289,41 @@ def test_a_name_with_a_nul_character_is_refused():
             trajectory.times, trajectory.positions, trajectory.orientations,
             ["ledge", "crate\0"], trajectory.meshes, trajectory.centers_of_mass,
         )  # fmt: skip
+
+
+def test_joints_are_recorded_and_round_trip_through_the_file(tmp_path):
+    """A run records where each joint sits on its bodies (World.joint_frames), which the file
+    keeps; a run without joints saves no joint arrays and loads with none."""
+    world = rbd.scenes.get("pendulum").build()
+    trajectory = rbd.simulate(world, 0.05)
+    assert trajectory.joint_names == ["joint0"]
+    np.testing.assert_array_equal(trajectory.joint_bodies, [[0, -1]])
+    np.testing.assert_allclose(trajectory.joint_anchors, [[[-1, 0, 0], [0, 0, 0]]], atol=1e-15)
+    np.testing.assert_allclose(trajectory.joint_axes, [[[0, 1, 0], [0, 1, 0]]], atol=1e-15)
+    path = tmp_path / "run.npz"
+    trajectory.save(path)
+    loaded = Trajectory.load(path)
+    for key, value in trajectory.joint_frames.items():
+        np.testing.assert_array_equal(loaded.joint_frames[key], value)
+    rbd.simulate(two_body_world(), 0.05).save(path)
+    with np.load(path) as data:
+        assert not any(key.startswith("joint_") for key in data.files)
+    assert Trajectory.load(path).joint_names == []
+
+
+def test_constructor_checks_joints():
+    frames = ([0, 1], np.zeros((2, 1, 3)), np.ones((2, 1, 4)), ["a"], [rbd.shapes.box()],
+              [[0, 0, 0]])  # fmt: skip
+    good = {"names": ["j"], "bodies": [[0, -1]], "anchors": np.zeros((1, 2, 3)),
+            "axes": np.zeros((1, 2, 3))}  # fmt: skip
+    assert Trajectory(*frames, joints=good).joint_names == ["j"]
+    faults = {
+        "need the keys": {"names": ["j"]},
+        "they must agree": {**good, "names": ["j", "k"]},
+        "indices below 1": {**good, "bodies": [[-1, 0]]},
+        "non-finite": {**good, "axes": np.full((1, 2, 3), np.inf)},
+        "NUL": {**good, "names": ["j\0"]},
+    }
+    for message, joints in faults.items():
+        with pytest.raises(ValueError, match=message):
+            Trajectory(*frames, joints=joints)

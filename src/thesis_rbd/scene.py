@@ -32,6 +32,8 @@ and one ``[[joint]]`` table per joint with the arguments of
     body_a = "box"
     anchor = [0.0, 0.0, 1.5]
     axis = [0.0, 1.0, 0.0]
+    limits = [-1.0, inf]
+    motor = { velocity = 1.0, max_force = 20.0 }
 
 Shapes: ``box`` (extents), ``icosphere`` (radius, subdivisions), ``cylinder`` (radius, height,
 sections), ``torus`` (major_radius, minor_radius, major_sections, minor_sections) with the
@@ -161,6 +163,10 @@ class JointSpec:
     anchor_b : (3,) float ndarray or None
     collide : bool
     name : str or None
+    limits : (lower, upper) of float or None
+        -inf / inf for an open side; None: no limits.
+    motor : Mapping or None
+        The motor table as written (numbers by key); None: no motor.
     """
 
     kind: str
@@ -171,6 +177,8 @@ class JointSpec:
     anchor_b: np.ndarray | None
     collide: bool
     name: str | None
+    limits: tuple[float, float] | None = None
+    motor: MappingProxyType | None = None
 
 
 @dataclass(frozen=True)
@@ -244,7 +252,8 @@ class Scene:
                 world.add_joint(
                     joint.kind, joint.body_a, joint.body_b, anchor=joint.anchor,
                     axis=joint.axis, anchor_b=joint.anchor_b, collide=joint.collide,
-                    name=joint.name,
+                    name=joint.name, limits=joint.limits,
+                    motor=None if joint.motor is None else dict(joint.motor),
                 )  # fmt: skip
             except (ValueError, NotImplementedError) as exc:
                 raise SceneError(f"{self.source}: joint[{index}]: {exc}") from exc
@@ -506,7 +515,13 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
     )
 
 
-_JOINT_KEYS = ("kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name")
+_JOINT_KEYS = (
+    "kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name", "limits", "motor",
+)  # fmt: skip
+# Every key some motor takes; World.add_joint judges which go together.
+_MOTOR_KEYS = (
+    "velocity", "max_force", "torque", "position", "stiffness", "damping", "servo", "max_velocity",
+)  # fmt: skip
 
 
 def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
@@ -525,6 +540,7 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
         return body_index[name]
 
     anchor_b = _optional(table, "anchor_b", None, _vector3, where)
+    motor = _optional(table, "motor", None, _motor, where)
     return JointSpec(
         kind=_as_string(table["kind"], where.field("kind")),
         body_a=body("body_a"),
@@ -534,7 +550,28 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
         anchor_b=None if anchor_b is None else np.asarray(anchor_b),
         collide=_optional(table, "collide", False, _as_bool, where),
         name=_optional(table, "name", None, _as_string, where),
+        limits=_optional(table, "limits", None, _limits, where),
+        motor=None if motor is None else MappingProxyType(motor),
     )
+
+
+def _limits(value, where: _Context) -> tuple[float, float]:
+    """A joint's (lower, upper): two numbers, inf / -inf for an open side (TOML's inf)."""
+    if not isinstance(value, list) or len(value) != 2:
+        where.fail(f"must be [lower, upper], got {_describe(value)}")
+    bounds = []
+    for item in value:
+        if isinstance(item, bool) or not isinstance(item, int | float) or math.isnan(item):
+            where.fail(f"must be two numbers (inf or -inf for an open side), got {value!r}")
+        bounds.append(float(item))
+    return bounds[0], bounds[1]
+
+
+def _motor(value, where: _Context) -> dict:
+    """A joint's motor table: numbers by key, e.g. { velocity = 1.0, max_force = 2.0 }."""
+    table = _as_table(value, where, None)
+    _check_keys(table, _MOTOR_KEYS, where, what="motor key")
+    return {key: _number(item, where.field(key)) for key, item in table.items()}
 
 
 def _parse_force(table, where: _Context) -> ForceSpec:

@@ -14,8 +14,13 @@ contacts are rows ``contact_offsets[t]:contact_offsets[t + 1]`` of ``contact_poi
 ``contact_normals`` (C, 3) and ``contact_bodies`` (C, 2). A trajectory without them has
 ``contact_offsets`` None.
 
-Saved as one ``.npz`` (no pickles), written atomically: complete or not at all. The contact
-arrays are saved only when recorded; files without them load as trajectories without contacts.
+A run of a world with joints also records where each joint sits on its bodies (constant, in
+the bodies' frames: ``World.joint_frames``), so that playback draws the joints: a joint's
+anchor on body i is at R(q[t, i]) a + x[t, i] at frame t.
+
+Saved as one ``.npz`` (no pickles), written atomically: complete or not at all. The contact and
+joint arrays are saved only when there are some; files without them load as trajectories
+without contacts or joints.
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ _ARRAYS = (
     "metadata",
 )
 _CONTACT_ARRAYS = ("contact_points", "contact_normals", "contact_bodies", "contact_offsets")
+_JOINT_ARRAYS = ("joint_names", "joint_bodies", "joint_anchors", "joint_axes")
 
 
 class Trajectory:
@@ -78,6 +84,11 @@ class Trajectory:
         frame, normals from the second body towards the first), ``bodies`` (C, 2) int body
         indices [a, b], and ``offsets`` (T + 1,) int, non-decreasing from 0 to C: frame t's
         contacts are rows ``offsets[t]:offsets[t + 1]``. None: no contacts were recorded.
+    joints : dict of array_like, optional
+        Where m joints sit on their bodies, the keys of ``World.joint_frames``: ``names`` (m
+        str), ``bodies`` (m, 2) int [body_a, body_b] (-1: the world), ``anchors`` and
+        ``axes`` (m, 2, 3) in each body's frame relative to its centre of mass (on the world,
+        world frame; axes zero where the kind has none). None: no joints.
 
     Attributes
     ----------
@@ -85,6 +96,10 @@ class Trajectory:
     contact_bodies : (C, 2) int64 ndarray or None
     contact_offsets : (T + 1,) int64 ndarray or None
         The recorded contacts (see ``contacts``); all None when none were recorded.
+    joint_names : list of str
+    joint_bodies : (m, 2) int64 ndarray
+    joint_anchors, joint_axes : (m, 2, 3) float ndarray
+        The joints (see ``joints``); m = 0 without joints.
 
     Raises
     ------
@@ -103,6 +118,7 @@ class Trajectory:
         static=None,
         metadata: dict | None = None,
         contacts: dict | None = None,
+        joints: dict | None = None,
     ):
         self.times = np.ascontiguousarray(times, dtype=np.float64)
         self.positions = np.ascontiguousarray(positions, dtype=np.float64)
@@ -141,6 +157,7 @@ class Trajectory:
         self.contact_bodies = self.contact_offsets = None
         if contacts is not None:
             self._set_contacts(contacts)
+        self._set_joints(joints)
 
     def _set_contacts(self, contacts: dict) -> None:
         """Check and store recorded contacts (see the class docstring)."""
@@ -173,6 +190,40 @@ class Trajectory:
         self.contact_points, self.contact_normals = points, normals
         self.contact_bodies, self.contact_offsets = bodies, offsets
 
+    def _set_joints(self, joints: dict | None) -> None:
+        """Check and store the joints (see the class docstring); None: none."""
+        keys = {"names", "bodies", "anchors", "axes"}
+        if joints is None:
+            joints = {"names": [], "bodies": [], "anchors": [], "axes": []}
+        if set(joints) != keys:
+            raise ValueError(
+                f"trajectory joints need the keys {sorted(keys)}, got {sorted(joints)}"
+            )
+        names = [str(name) for name in joints["names"]]
+        bodies = np.ascontiguousarray(joints["bodies"], dtype=np.int64).reshape(-1, 2)
+        anchors = np.ascontiguousarray(joints["anchors"], dtype=np.float64).reshape(-1, 2, 3)
+        axes = np.ascontiguousarray(joints["axes"], dtype=np.float64).reshape(-1, 2, 3)
+        count = len(names)
+        if not len(bodies) == len(anchors) == len(axes) == count:
+            raise ValueError(
+                f"trajectory joints: {count} names, {len(bodies)} body pairs, {len(anchors)} "
+                f"anchor pairs and {len(axes)} axis pairs; they must agree"
+            )
+        if any("\0" in name for name in names):
+            raise ValueError("a trajectory joint name holds a NUL character")
+        if not (np.all(np.isfinite(anchors)) and np.all(np.isfinite(axes))):
+            raise ValueError("trajectory joints hold a non-finite value")
+        n = self.body_count
+        if count and not (
+            np.all((bodies[:, 0] >= 0) & (bodies[:, 0] < n))
+            and np.all((bodies[:, 1] >= -1) & (bodies[:, 1] < n))
+        ):
+            raise ValueError(
+                f"trajectory joint bodies must be indices below {n} (body_b -1: the world)"
+            )
+        self.joint_names, self.joint_bodies = names, bodies
+        self.joint_anchors, self.joint_axes = anchors, axes
+
     # ------------------------------------------------------------------ reading
     def __len__(self) -> int:
         """Number of frames T."""
@@ -191,6 +242,16 @@ class Trajectory:
     def has_contacts(self) -> bool:
         """Whether the run recorded its contacts."""
         return self.contact_offsets is not None
+
+    @property
+    def joint_frames(self) -> dict:
+        """The joints as ``World.joint_frames`` gives them (see ``joints``)."""
+        return {
+            "names": list(self.joint_names),
+            "bodies": self.joint_bodies,
+            "anchors": self.joint_anchors,
+            "axes": self.joint_axes,
+        }
 
     def contacts(self, frame: int) -> dict[str, np.ndarray]:
         """Contacts recorded at ``frame``: the contacts of the step that ended there.
@@ -278,6 +339,13 @@ class Trajectory:
                 contact_bodies=self.contact_bodies,
                 contact_offsets=self.contact_offsets,
             )
+        if self.joint_names:
+            arrays.update(
+                joint_names=np.array(self.joint_names, dtype=str),
+                joint_bodies=self.joint_bodies,
+                joint_anchors=self.joint_anchors,
+                joint_axes=self.joint_axes,
+            )
         with atomic_path(path) as temporary, open(temporary, "wb") as file:
             np.savez_compressed(file, **arrays)
 
@@ -328,7 +396,13 @@ class Trajectory:
             ("contact_bodies", "iu", 2),
             ("contact_offsets", "iu", 1),
         )
-        for key, kinds, dims in contact_fields:
+        joint_fields = (
+            ("joint_names", "U", 1),
+            ("joint_bodies", "iu", 2),
+            ("joint_anchors", "f", 3),
+            ("joint_axes", "f", 3),
+        )
+        for key, kinds, dims in contact_fields + joint_fields:
             if key in arrays:
                 _field(arrays, key, kinds, dims)
         try:
@@ -363,7 +437,21 @@ class Trajectory:
             arrays["static"],
             metadata,
             contacts,
+            _joints(arrays),
         )
+
+
+def _joints(arrays: dict) -> dict | None:
+    """A file's joints as ``Trajectory``'s ``joints``: None without them, all four or none."""
+    present = [key for key in _JOINT_ARRAYS if key in arrays]
+    if not present:
+        return None
+    if len(present) != len(_JOINT_ARRAYS):
+        missing = sorted(set(_JOINT_ARRAYS) - set(present))
+        raise ValueError(f"partial joint data (missing {', '.join(missing)})")
+    joints = {key.removeprefix("joint_"): arrays[key] for key in _JOINT_ARRAYS}
+    joints["names"] = joints["names"].tolist()
+    return joints
 
 
 def _field(arrays: dict, key: str, kinds: str, dims: int, columns: int | None = None):
@@ -480,7 +568,7 @@ def simulate(
     Trajectory
         With metadata ``dt``, ``integrator``, ``steps``, ``stages`` (the stages the world
         planned at the start) and ``profile`` (calls and seconds of each stage during this
-        run only).
+        run only), and the world's joints (``World.joint_frames``).
     """
     if not isinstance(world, World):
         raise ValueError(f"world must be a World, got {type(world).__name__}")
@@ -545,6 +633,7 @@ def simulate(
             "profile": profile,
         },
         contacts=_stack_contacts(contact_frames) if record_contacts else None,
+        joints=world.joint_frames,
     )
 
 

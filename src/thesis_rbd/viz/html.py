@@ -2,9 +2,10 @@
 
 The page is viser's own web client (three.js, WebGL, a depth buffer) with the run embedded as
 a viser scene recording: the bodies' meshes once, then each frame's poses at its simulated
-time, and the recorded contacts when the run has them. viser's player gives it a timeline (a
-slider), play/pause (also the space bar), a speed choice and an orbit camera, and loops at the
-end. Everything is inside the one file: it opens from disk, with no server and no network.
+time, and the recorded contacts when the run has them; joints are drawn on their bodies
+(``joint_nodes``) and move with them. viser's player gives it a timeline (a slider), play/pause
+(also the space bar), a speed choice and an orbit camera, and loops at the end. Everything is
+inside the one file: it opens from disk, with no server and no network.
 
 Frames are thinned to at most ``fps`` per simulated second (the last frame always kept); a
 kept frame without contacts shows those of the latest frame it stands for that has some. The
@@ -24,6 +25,7 @@ import numpy as np
 from thesis_rbd._atomic import atomic_path
 from thesis_rbd.trajectory import Trajectory
 from thesis_rbd.viz.frames import playback_frames
+from thesis_rbd.viz.joint_nodes import JointNodes, world_anchors
 from thesis_rbd.viz.viser_scene import (
     BodyNodes,
     add_floor_grid,
@@ -80,8 +82,13 @@ def render_html(trajectory: Trajectory, title: str | None = None, fps: float = 6
     frames = playback_frames(trajectory.times, fps)
     positions = trajectory.positions[frames]
     orientations = trajectory.orientations[frames]
+    joints = trajectory.joint_frames
     lower, upper = scene_bounds(
-        trajectory.meshes, trajectory.centers_of_mass, positions, orientations
+        trajectory.meshes,
+        trajectory.centers_of_mass,
+        positions,
+        orientations,
+        points=world_anchors(joints),
     )
     size = float(np.linalg.norm(upper - lower))
     times = trajectory.times[frames]
@@ -94,6 +101,7 @@ def render_html(trajectory: Trajectory, title: str | None = None, fps: float = 6
             trajectory.static,
             size,
         )
+        JointNodes(server.scene, [handle.name for handle in nodes.handles], joints, size)
         add_floor_grid(server.scene, lower, upper, size)
         frame_camera(server, lower, upper)
         contact_frames = _contact_frames(trajectory, frames)

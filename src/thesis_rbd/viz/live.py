@@ -1,11 +1,11 @@
 """The live view: a scene simulated in this process and drawn in the browser by viser.
 
 ``thesis-rbd view SCENE`` builds the scene's world and serves a page (viser's web client) on
-which the bodies move as the world steps: in real time, at a chosen multiple of it, or as
-fast as it goes. The panel beside the view plays and pauses, steps once, resets the scene,
-sets the speed, shows or hides the contacts (points with a tick along the normal), shows the
-time each stage took per step over the last second, and shows the state of the body last
-clicked (position, orientation, velocities).
+which the bodies move as the world steps, their joints drawn on them (``joint_nodes``): in real
+time, at a chosen multiple of it, or as fast as it goes. The panel beside the view plays and
+pauses, steps once, resets the scene, sets the speed, shows or hides the contacts (points with
+a tick along the normal), shows the time each stage took per step over the last second, and
+shows the state of the body last clicked (position, orientation, velocities).
 
 The world lives in the thread that calls :meth:`LiveView.run`; the page's buttons are
 answered on viser's threads, which only leave requests for that loop, so the world is never
@@ -25,6 +25,7 @@ import numpy as np
 
 from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd.scene import Scene
+from thesis_rbd.viz.joint_nodes import JointNodes, world_anchors
 from thesis_rbd.viz.viser_scene import (
     BodyNodes,
     add_floor_grid,
@@ -224,11 +225,13 @@ class LiveView:
     # ------------------------------------------------------------------ the page
     def _build_scene_nodes(self) -> None:
         world, bodies = self.world, self.world.bodies
+        joints = world.joint_frames
         lower, upper = scene_bounds(
             bodies.meshes,
             bodies.center_of_mass_local,
             np.asarray(world.positions)[None],
             np.asarray(world.orientations)[None],
+            points=world_anchors(joints),
         )
         size = float(np.linalg.norm(upper - lower))
         self.nodes = BodyNodes(
@@ -238,6 +241,10 @@ class LiveView:
             bodies.center_of_mass_local,
             bodies.static,
             size,
+        )
+        # the joints ride on the body nodes: a reset builds the same joints, so they stay
+        self.joints = JointNodes(
+            self.server.scene, [handle.name for handle in self.nodes.handles], joints, size
         )
         add_floor_grid(self.server.scene, lower, upper, size)
         frame_camera(self.server, lower, upper)

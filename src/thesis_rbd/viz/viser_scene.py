@@ -73,9 +73,15 @@ def body_color(index: int, static: bool) -> tuple[int, int, int]:
 
 
 def scene_bounds(
-    meshes, centers_of_mass, positions: np.ndarray, orientations: np.ndarray, samples: int = 50
+    meshes,
+    centers_of_mass,
+    positions: np.ndarray,
+    orientations: np.ndarray,
+    samples: int = 50,
+    points: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper (3,) corners of the box holding every body's mesh over a run.
+    """Lower and upper (3,) corners of the box holding every body's mesh over a run, and
+    ``points``.
 
     Parameters
     ----------
@@ -89,6 +95,8 @@ def scene_bounds(
         (x, y, z, w) orientations at each frame.
     samples : int
         Frames looked at, evenly spread over the run (the first and last included).
+    points : (k, 3) array_like, optional
+        Fixed world points the box holds too (the joints' anchors on the world).
     """
     positions = np.asarray(positions, dtype=np.float64)
     orientations = np.asarray(orientations, dtype=np.float64)
@@ -100,6 +108,9 @@ def scene_bounds(
         world = np.einsum("fij,vj->fvi", rotations, local) + positions[frames, body][:, None, :]
         lower = np.minimum(lower, world.reshape(-1, 3).min(axis=0))
         upper = np.maximum(upper, world.reshape(-1, 3).max(axis=0))
+    if points is not None and len(points):
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lower, upper = np.minimum(lower, points.min(axis=0)), np.maximum(upper, points.max(axis=0))
     return lower, upper
 
 

@@ -6,12 +6,23 @@ from __future__ import annotations
 import numpy as np
 
 from thesis_rbd.dynamics.joint_rows import read_joints
-from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, JOINT_KINDS, KIND
+from thesis_rbd.dynamics.joint_set import (
+    ARM_A,
+    ARM_B,
+    AXIS_A,
+    AXIS_B,
+    BODY_A,
+    BODY_B,
+    JOINT_KINDS,
+    KIND,
+)
 from thesis_rbd.spatial.quaternion import quat_rotate, quat_to_matrix
 
 __all__ = ["WorldJoints"]
 
 _KIND_NAMES = np.array(list(JOINT_KINDS))
+# Kinds whose axis means something to someone looking at them: a hinge's and a slider's.
+_AXIS_KINDS = np.array([JOINT_KINDS["revolute"], JOINT_KINDS["prismatic"]])
 
 
 class WorldJoints:
@@ -128,4 +139,30 @@ class WorldJoints:
             "force": force.copy(),
             "torque": impulse[:, 3:6] - np.cross(arm.reshape(-1, 3), force),
             "motor_force": impulse[:, 6].copy(),
+        }
+
+    @property
+    def joint_frames(self) -> dict:
+        """Where each joint sits on its two bodies: fixed in their frames, so constant.
+
+        Keys (m joints): ``names`` (list of str); ``bodies`` (m, 2) int64, body_a and body_b
+        (-1: the world); ``anchors`` (m, 2, 3), the anchor on each body relative to its centre
+        of mass in its body frame (the frame of ``orientations``; on the world, the world
+        point), m; ``axes`` (m, 2, 3), a hinge's or slider's unit axis in the same frames,
+        zero for the kinds without one. A side's world anchor is R(q) anchor + x with the
+        body's current pose (x, q); the joint holds the two sides' anchors together (a
+        slider's on its line, a rod's at its length).
+        """
+        joints = self._joints
+        floats = joints.floats
+        has_axis = np.isin(joints.ints[:, KIND], _AXIS_KINDS)[:, None, None]
+        return {
+            "names": list(joints.names),
+            "bodies": joints.ints[:, BODY_A : BODY_B + 1].copy(),
+            "anchors": np.stack([floats[:, ARM_A : ARM_A + 3], floats[:, ARM_B : ARM_B + 3]], 1),
+            "axes": np.where(
+                has_axis,
+                np.stack([floats[:, AXIS_A : AXIS_A + 3], floats[:, AXIS_B : AXIS_B + 3]], 1),
+                0.0,
+            ),
         }
