@@ -719,27 +719,6 @@ def test_bad_collision_groups_are_refused(value):
         world.add_body(rbd.shapes.box(), collision_group=value)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="joints are held after the contact stage, not solved with its rows: the floor "
-    "holds the lower box up against its own weight only, the weld pulls it down by the upper "
-    "box's, and the pair never comes to rest (joint rows in the contact islands are next)",
-)
-def test_jointed_bodies_sleep_and_wake_together():
-    """Two boxes welded side by side rest on a floor, only one of them touching it: they fall
-    asleep as one island, and a force on the other wakes both."""
-    world = rbd.World(dt=1 / 240, gravity=(0, 0, -G))
-    world.add_body(rbd.shapes.box((4, 4, 1)), position=(0, 0, -0.5), static=True)
-    low = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), mass=1.0, position=(0, 0, 0.1))
-    high = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), mass=1.0, position=(0, 0, 0.3))
-    world.add_joint("fixed", high, low, anchor=(0, 0, 0.2))
-    world.step(480)
-    assert world.sleeping[[low, high]].all()
-    world.apply_force(high, (1.0, 0, 0), duration=0.1)
-    world.step(1)
-    assert not world.sleeping[[low, high]].any()
-
-
 def _wheel(motor):
     world = rbd.World(dt=1 / 240)
     wheel = world.add_body(rbd.shapes.cylinder(0.3, 0.1), mass=2.0)

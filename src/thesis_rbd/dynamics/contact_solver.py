@@ -50,6 +50,7 @@ from thesis_rbd.dynamics.pgs import build_rows, friction_polygon, sweep_island
 __all__ = [
     "contact_basis",
     "delassus_matrix",
+    "exact_contact_impulses",
     "relative_velocity",
     "solve_exact",
     "solve_pgs",
@@ -290,6 +291,54 @@ _PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
 
 @njit(separate=True)
+def exact_contact_impulses(sides, A, u, bias, friction, velocity_scale):
+    """Lemke's answer to the contact problem of the Delassus matrix ``A`` (3c, 3c) and the
+    contact velocities ``u`` (3c,) before the impulses, rows (n, t1, t2) per contact.
+
+    The LCP is scaled to be dimensionless (``_scaling``) and each answer checked against the
+    LCP conditions and the energy bound (``_dissipates``), at each pivot tolerance in turn
+    until one passes.
+
+    Returns
+    -------
+    impulse : (3c,) float64
+        The best answer found, in contact space.
+    residual : float
+        Its largest relative violation (at most 1e-6: solved exactly).
+    status : int
+        Lemke's status for it (0: the path ended on a solution).
+    """
+    c = bias.shape[0]
+    M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
+    S = _scaling(M, c, sides, friction)
+    for i in range(M.shape[0]):
+        q[i] *= S[i]
+        for j in range(M.shape[0]):
+            M[i, j] *= S[i] * S[j]
+    velocity_floor = 0.0
+    for k in range(c):
+        velocity_floor = max(velocity_floor, velocity_scale * S[k])
+    # Coplanar contacts make M singular and the path degenerate; a pivot a millionth of its
+    # column's largest entry is round-off, and pivoting on it wrecks the tableau. The default
+    # tolerance rejects those; the others are retries for the rare path it blocks.
+    # Redundant contacts can also stop the path on a ray while the artificial variable is
+    # already zero, and then the basis in hand is a solution: the LCP conditions are the
+    # judge either way.
+    best, best_residual, best_status = np.zeros(3 * c), np.inf, 3
+    for pivot_tolerance in _PIVOT_TOLERANCES:
+        z, status, _ = lemke(M, q, 0, pivot_tolerance)
+        residual = _lcp_residual(M, q, z, velocity_floor)
+        contact_impulse = G @ (S * z)
+        if not _dissipates(A, u, bias, contact_impulse):
+            residual = max(residual, 1.0)  # an answer that adds energy is no answer
+        if residual < best_residual:
+            best, best_residual, best_status = contact_impulse, residual, status
+        if residual <= 1e-6:
+            break
+    return best, best_residual, best_status
+
+
+@njit(separate=True)
 def solve_exact(
     sides, contacts, bias, friction, bodies, impulse, velocity_scale, pgs_fallback_iterations=200
 ):
@@ -318,32 +367,9 @@ def solve_exact(
     for k in range(c):
         for d in range(3):
             u[3 * k + d] = relative_velocity(k, d, contacts, bodies)
-    M, q, G = _stewart_trinkle_lcp(A, u, bias, friction, sides)
-    S = _scaling(M, c, sides, friction)
-    for i in range(M.shape[0]):
-        q[i] *= S[i]
-        for j in range(M.shape[0]):
-            M[i, j] *= S[i] * S[j]
-    velocity_floor = 0.0
-    for k in range(c):
-        velocity_floor = max(velocity_floor, velocity_scale * S[k])
-    # Coplanar contacts make M singular and the path degenerate; a pivot a millionth of its
-    # column's largest entry is round-off, and pivoting on it wrecks the tableau. The default
-    # tolerance rejects those; the others are retries for the rare path it blocks.
-    # Redundant contacts can also stop the path on a ray while the artificial variable is
-    # already zero, and then the basis in hand is a solution: the LCP conditions are the
-    # judge either way.
-    best, best_residual, best_status = np.zeros(3 * c), np.inf, 3
-    for pivot_tolerance in _PIVOT_TOLERANCES:
-        z, status, _ = lemke(M, q, 0, pivot_tolerance)
-        residual = _lcp_residual(M, q, z, velocity_floor)
-        contact_impulse = G @ (S * z)
-        if not _dissipates(A, u, bias, contact_impulse):
-            residual = max(residual, 1.0)  # an answer that adds energy is no answer
-        if residual < best_residual:
-            best, best_residual, best_status = contact_impulse, residual, status
-        if residual <= 1e-6:
-            break
+    best, best_residual, best_status = exact_contact_impulses(
+        sides, A, u, bias, friction, velocity_scale
+    )
     if best_residual <= 1e-6:
         _set_impulses(best, contacts, bodies, impulse)
         return 0

@@ -48,7 +48,9 @@ from thesis_rbd.dynamics.contact_solver import contact_basis
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import island_tolerances, solve_islands
-from thesis_rbd.dynamics.islands import find_islands
+from thesis_rbd.dynamics.islands import find_islands, find_linked_islands
+from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B
+from thesis_rbd.dynamics.jointed_contacts import island_joints
 from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 
@@ -145,7 +147,7 @@ def resolve_impacts(
     contact_count,
     position, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, inertia_body, thickness, restitution, friction,
-    external_force, drag, pf_start, pf_arm, pf_force, impulse,
+    external_force, drag, pf_start, pf_arm, pf_force, impulse, joints,
 ):  # fmt: skip
     """Resolve the islands with a stepped-back body and carry them to the end of the step.
 
@@ -169,6 +171,9 @@ def resolve_impacts(
         The step's forces.
     impulse : (c, 3) float64
         Out: each contact's total impulse in its (n, t1, t2) frame (zero outside the islands).
+    joints : tuple or None
+        As ``solve_contacts``'s: joints join islands, a whole island goes back to its time
+        of impact, and an island with joints is solved with them held.
 
     Returns
     -------
@@ -187,8 +192,8 @@ def resolve_impacts(
     n = count
     stats = np.zeros(6, np.int64)
     stats[BAD_BODY] = -1
-    resolved, sel, sub_start, body_island, island_time = _impact_islands(
-        n, body_a, body_b, static, rewind
+    resolved, sel, sub_start, body_island, island_time, member = _impact_islands(
+        n, body_a, body_b, static, rewind, joints
     )
     kept = sel.shape[0]
     if kept == 0:
@@ -221,10 +226,22 @@ def resolve_impacts(
         settings, sel, sub_start, sa, sb, depths, sub_normals, arm_a, arm_b, v, w,
         acceleration, slop, restitution, friction,
     )  # fmt: skip
+    joined = None
+    if joints is not None:
+        # the joints of each kept island, numbered as sub_start numbers them
+        sub_island = np.full(n, -1)
+        kept_index = np.cumsum(island_time > 0.0) - 1
+        for i in range(n):
+            if member[i]:
+                sub_island[i] = kept_index[body_island[i]]
+        joint_start, island_joint_list = island_joints(
+            joints[0], sub_island, sub_start.shape[0] - 1
+        )
+        joined = (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        tolerance, movable_mass, inverse_inertia, v, w, lam, stats,
+        tolerance, movable_mass, inverse_inertia, v, w, lam, stats, joined,
     )  # fmt: skip
 
     # 2. the rest of the step: forces over it, then resting contact
@@ -248,17 +265,17 @@ def resolve_impacts(
     )
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        relaxed, movable_mass, inverse_inertia, v, w, rest, stats,
+        relaxed, movable_mass, inverse_inertia, v, w, rest, stats, joined,
     )  # fmt: skip
 
     # 3. the bodies carried to the end of the step
     _back_to_collision(
-        n, static, rewind, sa, sb, body_island, island_time, v0, angular_momentum,
+        n, member, rewind, body_island, island_time, v0, angular_momentum,
         inverse_inertia_body, acceleration, position, orientation,
     )  # fmt: skip
     stats[BAD_BODY], pushed = _carry_to_end_of_step(
-        n, static, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position,
-        orientation,
+        n, static, member, joints is not None, solved, rewind, sa, sb, rest, v, w, v1, w1,
+        acceleration, position, orientation,
         linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, inertia_body,
         external_force, drag, pf_start, pf_arm, pf_force,
     )  # fmt: skip
@@ -270,38 +287,47 @@ def resolve_impacts(
 
 @njit(inline="always")
 def _back_to_collision(
-    n, static, rewind, sa, sb, body_island, island_time, v0, angular_momentum,
-    inverse_inertia_body, acceleration, position, orientation,
+    n, member, rewind, body_island, island_time, v0, angular_momentum, inverse_inertia_body,
+    acceleration, position, orientation,
 ):  # fmt: skip
-    """Step the bodies of the islands' contacts (``sa``, ``sb`` (k,)) that were not stepped
-    back to their island's time of impact along their paths before it (velocities ``v0``
-    (n, 3) at the end of the step, scratch), and set their ``rewind``: the collision changed
-    their velocities then, so they are carried on from there like the others."""
-    for k in range(sa.shape[0]):
-        for i in (sa[k], sb[k]):
-            if static[i] or rewind[i] > 0.0:
-                continue
-            t = island_time[body_island[i]]
-            move_ballistic(
-                np.array([i]), -t, v0, angular_momentum, inverse_inertia_body, acceleration,
-                position, orientation,
-            )  # fmt: skip
-            rewind[i] = t
+    """Step the bodies of the islands (``member`` (n,) bool) that were not stepped back to
+    their island's time of impact along their paths before it (velocities ``v0`` (n, 3) at
+    the end of the step, scratch), and set their ``rewind``: the collision changed their
+    velocities then, so they are carried on from there like the others."""
+    for i in range(n):
+        if not member[i] or rewind[i] > 0.0:
+            continue
+        t = island_time[body_island[i]]
+        move_ballistic(
+            np.array([i]), -t, v0, angular_momentum, inverse_inertia_body, acceleration,
+            position, orientation,
+        )  # fmt: skip
+        rewind[i] = t
 
 
 @njit(inline="always")
-def _impact_islands(n, body_a, body_b, static, rewind):
+def _impact_islands(n, body_a, body_b, static, rewind, joints):
     """The contacts of the islands that hold a stepped-back body: ``resolved`` (c,) bool,
     their rows ``sel`` (k,) int64 island by island, each island's first row in ``sel``
-    (``sub_start`` (islands + 1,) int64), and the island of each body (n,) int64 (-1: none)
-    with the islands' times of impact (the longest rewind of their bodies, s)."""
+    (``sub_start`` (islands + 1,) int64), the island of each body (n,) int64 (-1: none)
+    with the islands' times of impact (the longest rewind of their bodies, s), and the
+    bodies of those islands (``member`` (n,) bool). Joints (``solve_contacts``'s) join
+    islands."""
     c = body_a.shape[0]
-    body_island, order, island_start = find_islands(n, body_a, body_b, static)
+    if joints is None:
+        body_island, order, island_start = find_islands(n, body_a, body_b, static)
+    else:
+        body_island, order, island_start = find_linked_islands(
+            n, body_a, body_b, static, joints[0][:, BODY_A], joints[0][:, BODY_B]
+        )
     islands = island_start.shape[0] - 1
     island_time = np.zeros(islands)
     for i in range(n):
         if body_island[i] >= 0:
             island_time[body_island[i]] = max(island_time[body_island[i]], rewind[i])
+    member = np.zeros(n, np.bool_)
+    for i in range(n):
+        member[i] = body_island[i] >= 0 and island_time[body_island[i]] > 0.0
     # keep the contacts of islands with a stepped-back body, island by island
     keep = np.zeros(c, np.bool_)
     starts = [0]
@@ -320,7 +346,7 @@ def _impact_islands(n, body_a, body_b, static, rewind):
             for idx in range(island_start[isl], island_start[isl + 1]):
                 sel[m] = order[idx]
                 m += 1
-    return keep, sel, np.array(starts, np.int64), body_island, island_time
+    return keep, sel, np.array(starts, np.int64), body_island, island_time, member
 
 
 @njit(inline="always")
@@ -395,9 +421,9 @@ def _collision_terms(
 
 @njit(inline="always")
 def _carry_to_end_of_step(
-    n, static, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration, position,
-    orientation, linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
-    inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+    n, static, member, jointed, solved, rewind, sa, sb, rest, v, w, v1, w1, acceleration,
+    position, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
 ):  # fmt: skip
     """Write the islands' momenta and move their stepped-back bodies to the end of the step;
     returns the first body whose momenta are not finite (-1: none) and which bodies the
@@ -408,14 +434,15 @@ def _carry_to_end_of_step(
     not its angular momentum). A stepped-back body the resting solve did not push (``rest``
     zero) flies on ballistically with the collision's velocities ``v1``, ``w1`` (its forces act
     over the time after the collision); one it pushed moves with the velocities ``v``, ``w``
-    of that solve, which hold the forces' share already."""
-    pushed = np.zeros(n, np.bool_)
-    touched = np.zeros(n, np.bool_)
+    of that solve, which hold the forces' share already. With joints (``jointed``), every
+    body of the islands (``member`` (n,) bool) moves with the solve's velocities: the joints
+    held in it changed them all."""
+    pushed = member.copy() if jointed else np.zeros(n, np.bool_)
+    touched = member.copy()
     for k in range(sa.shape[0]):
         for i in (sa[k], sb[k]):
             if static[i]:
                 continue
-            touched[i] = True
             if rest[k, 0] != 0.0 or rest[k, 1] != 0.0 or rest[k, 2] != 0.0:
                 pushed[i] = True
     flying = np.zeros(n, np.bool_)

@@ -30,6 +30,7 @@ from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import relative_velocity
 from thesis_rbd.dynamics.contact_solver import solve_exact
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
+from thesis_rbd.dynamics.jointed_contacts import solve_jointed_island
 from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
@@ -82,7 +83,7 @@ def island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, toleranc
 @njit(separate=True)
 def solve_islands(
     settings, polygon, island_start, body_a, body_b, arm_a, arm_b, basis, rows, bias, bounce,
-    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats,
+    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats, joined,
 ):  # fmt: skip
     """Solve each island's contacts, then add Poisson's restitution, in place.
 
@@ -118,6 +119,11 @@ def solve_islands(
         Warm start in, answer out, in each contact's (n, t1, t2) frame.
     stats : (6,) int64
         ``contact_stats.STATS`` counters, updated.
+    joined : tuple or None
+        ``(joint_start, joints, ints, floats, position, orientation)``: the joints of each
+        island (``jointed_contacts.island_joints``), the ``JointSet`` arrays and the poses;
+        an island with joints is solved with them held (``jointed_contacts``). None: no
+        joints.
     """
     angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     solver = int(settings[cs.SOLVER])
@@ -134,6 +140,16 @@ def solve_islands(
             rebounds |= bounce[k] > 0.0
         if not taking_part:
             continue
+        if joined is not None:
+            joint_start, joints, ints, floats, position, orientation = joined
+            if joint_start[isl + 1] > joint_start[isl]:
+                solve_jointed_island(
+                    s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, bias, bounce,
+                    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats,
+                    joints[joint_start[isl] : joint_start[isl + 1]], ints, floats, position,
+                    orientation,
+                )  # fmt: skip
+                continue
         # an impact's rebound gives back e of the compression impulses, and keeps the energy
         # only if they are the compression's answer: an island that rebounds is solved
         # exactly, when PGS has not converged, up to REBOUND_EXACT_CONTACTS contacts

@@ -13,12 +13,19 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd._sorting import stable_argsort
 from thesis_rbd._union_find import find_root, join
 
-__all__ = ["find_islands", "order_from_the_top"]
+__all__ = ["find_islands", "find_linked_islands", "order_from_the_top"]
 
 
 @njit(separate=True)
 def find_islands(body_count, body_a, body_b, static):
-    """Label bodies and contacts by island.
+    """``find_linked_islands`` without links: bodies joined by their contacts only."""
+    none = np.empty(0, np.int64)
+    return find_linked_islands(body_count, body_a, body_b, static, none, none)
+
+
+@njit(separate=True)
+def find_linked_islands(body_count, body_a, body_b, static, link_a, link_b):
+    """Label bodies and contacts by island, bodies joined by their contacts and by links.
 
     Parameters
     ----------
@@ -28,12 +35,15 @@ def find_islands(body_count, body_a, body_b, static):
         The two bodies of each contact.
     static : (n,) bool
         Static bodies belong to no island.
+    link_a, link_b : (l,) int64
+        Pairs of bodies that belong to one island whether they touch or not (the bodies of a
+        joint; -1, the world, links nothing).
 
     Returns
     -------
     body_island : (n,) int64
-        Island index of each dynamic body that touches something; -1 for static bodies and
-        for bodies without contacts.
+        Island index of each dynamic body that touches something or is linked to a body
+        that does; -1 for static bodies and the rest.
     contact_order : (c,) int64
         Contacts sorted by island.
     island_start : (m + 1,) int64
@@ -45,6 +55,11 @@ def find_islands(body_count, body_a, body_b, static):
     for k in range(c):
         a, b = body_a[k], body_b[k]
         if static[a] or static[b]:
+            continue
+        join(parent, a, b)
+    for k in range(link_a.shape[0]):
+        a, b = link_a[k], link_b[k]
+        if a < 0 or b < 0 or static[a] or static[b]:
             continue
         join(parent, a, b)
     # number the islands that own contacts, in order of their first contact

@@ -53,7 +53,9 @@ from thesis_rbd.dynamics.contact_solver import contact_basis
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, SWEEPS
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import correct_positions, island_tolerances, solve_islands
-from thesis_rbd.dynamics.islands import find_islands, order_from_the_top
+from thesis_rbd.dynamics.islands import find_islands, find_linked_islands, order_from_the_top
+from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B
+from thesis_rbd.dynamics.jointed_contacts import island_joints
 from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses
@@ -68,7 +70,7 @@ def solve_contacts(
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     external_force, drag, pf_start, pf_arm, pf_force,
-    old_keys, old_values, new_keys, new_values, impulse, solved, stats,
+    old_keys, old_values, new_keys, new_values, impulse, solved, stats, joints,
 ):  # fmt: skip
     """Solve every island's contacts for this step and write the momenta of the bodies hit.
 
@@ -106,6 +108,10 @@ def solve_contacts(
     stats : (6,) int64
         Out: the counters of ``contact_stats.STATS``; ``stats[BAD_BODY]`` is the first body
         whose new state is not finite (-1 if none).
+    joints : tuple or None
+        ``(ints, floats)`` of the world's ``JointSet``, None without joints. Joints join
+        islands, and an island with joints is solved with their rows held
+        (``jointed_contacts``); each of its bodies takes v+.
     """
     c = contact_count
     body_a, body_b, points, normals, depths, _, features = contact_views(
@@ -115,30 +121,47 @@ def solve_contacts(
     stats[:] = 0
     stats[BAD_BODY] = -1
     movable_mass = np.where(static[:n], 0.0, inverse_mass[:n])
-    v0, w0, v, w, inverse_inertia = _velocities_before_and_after_forces(
-        n, static, body_a, body_b, orientation, linear_momentum, angular_momentum,
-        inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
-        settings[cs.DT],
-    )  # fmt: skip
-
     # islands; contacts re-ordered so that each island is one slice
-    _, order, island_start = find_islands(n, body_a, body_b, static)
+    if joints is None:
+        body_island, order, island_start = find_islands(n, body_a, body_b, static)
+    else:
+        joint_ints = joints[0]
+        body_island, order, island_start = find_linked_islands(
+            n, body_a, body_b, static, joint_ints[:, BODY_A], joint_ints[:, BODY_B]
+        )
     order = order_from_the_top(n, body_a, body_b, static, order, island_start)
     stats[ISLANDS] = island_start.shape[0] - 1
+    v0, w0, v, w, inverse_inertia = _velocities_before_and_after_forces(
+        n, static, body_island, orientation, linear_momentum, angular_momentum, inverse_mass,
+        inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, settings[cs.DT],
+    )  # fmt: skip
     sa = body_a[order]
     sb = body_b[order]
     arm_a, arm_b = contact_arms(points, position, order, sa, sb)
     sorted_normals = normals[order]
     basis = contact_basis(sorted_normals)
     slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
+    joined = None
+    carried = np.zeros(n, np.bool_)
+    jointed = np.zeros(c, np.bool_)
+    if joints is not None:
+        joint_start, island_joint_list = island_joints(
+            joints[0], body_island, island_start.shape[0] - 1
+        )
+        joined = (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
+        for isl in range(island_start.shape[0] - 1):
+            if joint_start[isl + 1] > joint_start[isl]:
+                jointed[island_start[isl] : island_start[isl + 1]] = True
+        for i in range(n):
+            isl = body_island[i]
+            carried[i] = isl >= 0 and joint_start[isl + 1] > joint_start[isl]
     bias, bounce, push, mu, tolerance = _contact_terms(
         settings, static, order, sa, sb, depths, sorted_normals, arm_a, arm_b, v0, w0, v, w,
-        slop, restitution, friction,
+        slop, restitution, friction, jointed,
     )  # fmt: skip
     keys, sorted_features, local, lam = _warm_start(
         settings, order, sa, sb, features, arm_a, basis, slop, orientation, old_keys, old_values
     )
-
     rows = build_rows(sa, sb, arm_a, arm_b, basis, movable_mass, inverse_inertia)
     had_impact = _any_positive(bounce)
     impact = np.zeros((c if had_impact else 0, 3))
@@ -153,14 +176,14 @@ def solve_contacts(
         solve_islands(
             settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, impact_bias,
             impact_bounce, mu, tolerance, movable_mass, inverse_inertia, after_v, after_w,
-            impact, stats,
+            impact, stats, joined,
         )  # fmt: skip
         v += after_v - v0
         w += after_w - w0
         v0, w0 = after_v, after_w
         bias, bounce, push, mu, tolerance = _contact_terms(
             settings, static, order, sa, sb, depths, sorted_normals, arm_a, arm_b, v0, w0, v,
-            w, slop, restitution, friction,
+            w, slop, restitution, friction, jointed,
         )  # fmt: skip
     # a moving island is solved to a fraction of its motion before the forces, one at rest to
     # the slop's tolerance (contact_settings)
@@ -169,7 +192,7 @@ def solve_contacts(
     )
     solve_islands(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        relaxed, movable_mass, inverse_inertia, v, w, lam, stats,
+        relaxed, movable_mass, inverse_inertia, v, w, lam, stats, joined,
     )  # fmt: skip
     if had_impact:
         lam += impact
@@ -178,7 +201,7 @@ def solve_contacts(
         orientation,
     )  # fmt: skip
     stats[BAD_BODY] = _move_the_bodies_acted_on(
-        static, sa, sb, lam, v, w, position, orientation, inertia_body, inverse_mass,
+        static, sa, sb, lam, carried, v, w, position, orientation, inertia_body, inverse_mass,
         linear_momentum, angular_momentum, solved,
     )  # fmt: skip
     _remember_impulses(
@@ -188,23 +211,20 @@ def solve_contacts(
 
 @njit(inline="always")
 def _velocities_before_and_after_forces(
-    n, static, body_a, body_b, orientation, linear_momentum, angular_momentum, inverse_mass,
+    n, static, body_island, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, dt,
 ):  # fmt: skip
     """Body velocities before (v0, w0) and after (v, w) the step's forces, each (n, 3) (the
-    forces act on the bodies in contact only), and the world inverse inertias (n, 3, 3)."""
+    forces act on the bodies of an island only: ``body_island`` (n,) >= 0), and the world
+    inverse inertias (n, 3, 3)."""
     v0, w0, inverse_inertia = body_velocities(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
         inverse_inertia_body,
     )  # fmt: skip
     v = v0.copy()
     w = w0.copy()
-    involved = np.zeros(n, np.bool_)
-    for k in range(body_a.shape[0]):
-        involved[body_a[k]] = not static[body_a[k]]
-        involved[body_b[k]] = not static[body_b[k]]
     for i in range(n):
-        if not involved[i]:
+        if static[i] or body_island[i] < 0:
             continue
         F, T = body_forces(
             i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
@@ -220,11 +240,17 @@ def _velocities_before_and_after_forces(
 @njit(inline="always")
 def _contact_terms(
     settings, static, order, sa, sb, depths, normals, arm_a, arm_b, v0, w0, v, w, slop,
-    restitution, friction,
+    restitution, friction, jointed,
 ):  # fmt: skip
     """Each contact's row terms, in island order: ``bias`` (the velocity its normal row aims
     for), ``bounce`` (restitution), ``push`` (the pseudo-velocity that removes penetration
-    beyond the slop at rest, -inf: none), ``mu`` and ``tolerance``, each (c,)."""
+    beyond the slop at rest, -inf: none), ``mu`` and ``tolerance``, each (c,).
+
+    The contacts of islands with joints (``jointed`` (c,) bool) differ in two ways. The time
+    of impact steps single bodies back, which would pull them off their joints, so a jointed
+    body that will close a gap within the step collides now, a step early at most, with its
+    restitution (a speculative impact). And their penetration is removed through the
+    velocities, as the joints allow, not by moving bodies without their joints (``push``)."""
     dt = settings[cs.DT]
     rate = settings[cs.BIAS_RATE]
     c = order.shape[0]
@@ -244,10 +270,16 @@ def _contact_terms(
             relative += (v0[a, i] - v0[b, i]) ** 2
         at_rest = static[a] or static[b] or relative <= rest_speed * rest_speed
         approaching_fast = u_before < -(2.0 * abs(u_forced - u_before) + rest_speed)
-        if depth < 0.0:
+        if (
+            depth < 0.0 and approaching_fast and jointed[k] and u_before * dt < depth
+            and combined_restitution(restitution, a, b) > 0.0
+        ):  # fmt: skip
+            bounce[k] = combined_restitution(restitution, a, b)
+            bias[k] = u_before - u_forced
+        elif depth < 0.0:
             # not touching yet (a speculative contact): it may close its gap this step; a
             # body flying at it is left to the time of impact, which catches its bounce
-            bias[k] = np.inf if approaching_fast else -depth / dt
+            bias[k] = np.inf if approaching_fast and not jointed[k] else -depth / dt
         elif approaching_fast:
             # compression stops the approach it had before the step's forces (their share
             # acts on as over any step), then e times that impulse pushes it back: the
@@ -259,7 +291,9 @@ def _contact_terms(
             bias[k] = 0.0
         else:
             bias[k] = -rate * (depth - slop[k]) / dt
-        if depth > slop[k] and at_rest:
+        if depth > slop[k] and jointed[k]:
+            bias[k] = min(bias[k], -rate * (depth - slop[k]) / dt)
+        elif depth > slop[k] and at_rest:
             push[k] = rate * (depth - slop[k]) / dt
         mu[k] = combined_friction(friction, a, b)
         tolerance[k] = settings[cs.TOLERANCE] * slop[k] / dt
@@ -290,7 +324,7 @@ def _impact_terms(island_start, bounce, depths, order, slop, sa, sb, restitution
         if not _any_positive(bounce[s:e]):
             continue
         for k in range(s, e):
-            if depths[order[k]] >= -slop[k]:
+            if depths[order[k]] >= -slop[k] or bounce[k] > 0.0:
                 impact_bias[k] = 0.0
                 impact_bounce[k] = combined_restitution(restitution, sa[k], sb[k])
     return impact_bias, impact_bounce
@@ -325,12 +359,14 @@ def _warm_start(
 
 @njit(inline="always")
 def _move_the_bodies_acted_on(
-    static, sa, sb, lam, v, w, position, orientation, inertia_body, inverse_mass,
+    static, sa, sb, lam, carried, v, w, position, orientation, inertia_body, inverse_mass,
     linear_momentum, angular_momentum, solved,
 ):  # fmt: skip
-    """The bodies an impulse acted on take v+ (marked in ``solved``); the others keep their
-    state untouched. Returns the first body whose new state is not finite (-1: none)."""
-    hit = np.zeros(v.shape[0], np.bool_)
+    """The bodies an impulse acted on take v+ (marked in ``solved``), and so do the bodies of
+    islands with joints (``carried`` (n,)), whose velocities the joints' rows changed; the
+    others keep their state untouched. Returns the first body whose new state is not finite
+    (-1: none)."""
+    hit = carried.copy()
     for k in range(sa.shape[0]):
         if lam[k, 0] != 0.0 or lam[k, 1] != 0.0 or lam[k, 2] != 0.0:
             hit[sa[k]] = not static[sa[k]]

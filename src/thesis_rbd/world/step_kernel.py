@@ -123,7 +123,8 @@ def run_steps(
         Out: how far back (s) each body's path over this step goes, for the time of impact:
         ``dt``, less for a body the tunnelling stage caught part way.
     contact_group : tuple or None
-        ``(settings, polygon, stats)`` of the contact stage; None without a contact response.
+        ``(settings, polygon, stats, joints)`` of the contact stage (``joints``: the
+        ``JointSet``'s (ints, floats), None without joints); None without a contact response.
     joint_group : tuple or None
         ``(substeps, ints, floats, joint_start, island_joints, body_start, island_bodies,
         island_tree, neighbour_start, neighbour, jointed, unintegrated, substep_position,
@@ -174,7 +175,7 @@ def run_steps(
     stage = first
     # the groups unpacked once (numba compiles out what a None group holds)
     if contact_group is not None:
-        settings, polygon, stats = contact_group
+        settings, polygon, stats, contact_joints = contact_group
     if detection_group is not None:
         (
             size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half,
@@ -215,7 +216,7 @@ def run_steps(
                     orientation, linear_momentum, angular_momentum, inverse_mass,
                     inverse_inertia_body, inertia_body, thickness, restitution, friction,
                     external_force, drag, pf_start, pf_arm, pf_force, warm[0], warm[1], keys,
-                    values, impulses, solved, stats,
+                    values, impulses, solved, stats, contact_joints,
                 )  # fmt: skip
                 warm = (keys, values)
                 acted = (contacts[0], contacts[1], c, impulses)

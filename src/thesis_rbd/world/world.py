@@ -416,9 +416,11 @@ class World(WorldReadout, WorldJoints):
             )),
         )  # fmt: skip
         self._saved = b.saved_state()
+        # the contact stage solves an island's contacts with its joints held
+        contact_joints = (self._joints.ints, self._joints.floats) if jointed else None
         self._contact_group = (
             (settings.as_array(self.dt), friction_polygon(settings.friction_sides),
-             self._state.contact_stats)
+             self._state.contact_stats, contact_joints)
             if responds else None
         )  # fmt: skip
         self._joint_group = self._joint_arguments() if jointed else None
@@ -728,12 +730,12 @@ class World(WorldReadout, WorldJoints):
         collided (n,) s (0: not carried)."""
         b, c, pf = self.bodies, s.contacts, s.point_forces
         impulses = np.zeros((c.count, 3))
-        settings, polygon, _ = self._contact_group
+        settings, polygon, _, joints = self._contact_group
         rewind = s.rewind.copy()
         stats, resolved, pushed = resolve_impacts(
             settings, polygon, b.count, s.frozen, solved, rewind, c.ints, c.floats, c.count,
             *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
-            pf.force, impulses,
+            pf.force, impulses, joints,
         )  # fmt: skip
         if stats[BAD_BODY] >= 0:
             raise _StepFailed(int(stats[BAD_BODY]))
