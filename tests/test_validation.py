@@ -117,6 +117,42 @@ def test_lcp_study_measures_pgs_against_an_exact_reference(tiny_report):
     assert f"the exact solve takes {format_number(stack['exact_ms'])} ms" in text
 
 
+@pytest.fixture(scope="module")
+def joint_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("joint_reports")
+    run_campaign(out=out, scale="tiny", only=["joint_benchmarks"], log=quiet)
+    return out
+
+
+def test_joint_study_times_every_engine_and_reads_every_gap(joint_report):
+    data = study_data(joint_report, "joint_benchmarks")
+    summary = data["summary"]
+    speed = summary["speed"]
+    assert {"ours_ball", "ours_hinge", "pybullet_p2p", "pybullet_multibody"} <= set(speed)
+    for row in speed.values():
+        assert len(row["ms_per_step"]) == data["records"][0]["params"]["repeats"]
+    p2p = speed["pybullet_p2p"]["median_ms"]
+    assert summary["ours_over_p2p"] == pytest.approx(speed["ours_ball"]["median_ms"] / p2p)
+    for scene in ("chain", "heavy_chain"):
+        rows = summary["accuracy"][scene]["settings"]
+        assert {r["engine"] for r in rows} == {"ours", "pybullet_p2p"}
+        for row in rows:
+            assert row["max_gap"] >= 0 and row["median_ms"] > 0
+        pybullet = [r for r in rows if r["engine"] == "pybullet_p2p"]
+        assert [r["solver_iterations"] for r in pybullet] == [r["iterations"] for r in pybullet]
+        assert summary["accuracy"][scene]["ours_auto"]["max_gap"] < 1e-6
+    markdown = (joint_report / "report.md").read_text(encoding="utf-8")
+    for paragraph in data["paragraphs"]:
+        assert paragraph in markdown
+    for table in data["tables"]:
+        for row in table["rows"]:
+            assert "| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" in markdown
+    (figure,) = data["figures"]
+    assert (joint_report / "figures" / figure["file"]).read_bytes().startswith(PNG_SIGNATURE)
+    text = " ".join(data["paragraphs"])
+    assert f"{format_number(summary['ours_over_p2p'])} times its time" in text
+
+
 def _inside(value, bound):
     if isinstance(bound, list):
         return bound[0] <= value <= bound[1]

@@ -37,6 +37,7 @@ from validation.studies import (
     free_flight_benchmarks,
     impact_handling,
     integrators,
+    joint_benchmarks,
     lcp_vs_pgs,
     long_runs,
     narrow_phase_paths,
@@ -79,6 +80,7 @@ STUDIES: dict[str, ModuleType] = {
         sap_benchmarks,
         contact_benchmarks,
         step_benchmarks,
+        joint_benchmarks,
         startup,
     )
 }
