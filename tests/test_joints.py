@@ -395,19 +395,6 @@ def test_exclude_pair_needs_two_bodies():
         world.exclude_pair(0, 0)
 
 
-@pytest.mark.parametrize(
-    "options",
-    [{"damping": 0.1}, {"spring": {}}, {"friction": 0.2}],
-)
-def test_joint_options_not_built_yet_say_so(options):
-    world = rbd.World()
-    world.add_body(rbd.shapes.box())
-    with pytest.raises(NotImplementedError, match="not built yet"):
-        world.add_joint("revolute", 0, None, anchor=(0, 0, 0), **options)
-    with pytest.raises(NotImplementedError, match="'universal' is not built yet"):
-        world.add_joint("universal", 0, None, anchor=(0, 0, 0))
-
-
 @pytest.mark.parametrize("value", [0, -1, 1.5, True, "fast", 10_000])
 def test_bad_joint_substeps_are_refused(value):
     with pytest.raises(ValueError, match="joint_substeps"):

@@ -34,6 +34,10 @@ and one ``[[joint]]`` table per joint with the arguments of
     axis = [0.0, 1.0, 0.0]
     limits = [-1.0, inf]
     motor = { velocity = 1.0, max_force = 20.0 }
+    friction = 0.5
+
+A distance joint takes ``anchor_b``, ``limits = [0.0, 1.2]`` (a rope) and
+``spring = { stiffness = 100.0, damping = 2.0, rest_length = 1.0 }``.
 
 Shapes: ``box`` (extents), ``icosphere`` (radius, subdivisions), ``cylinder`` (radius, height,
 sections), ``torus`` (major_radius, minor_radius, major_sections, minor_sections) with the
@@ -167,6 +171,10 @@ class JointSpec:
         -inf / inf for an open side; None: no limits.
     motor : Mapping or None
         The motor table as written (numbers by key); None: no motor.
+    spring : Mapping or None
+        The spring table as written (numbers by key); None: no spring.
+    damping, friction : float
+        A hinge's or slider's viscous damping and Coulomb friction (0: none).
     """
 
     kind: str
@@ -179,6 +187,9 @@ class JointSpec:
     name: str | None
     limits: tuple[float, float] | None = None
     motor: MappingProxyType | None = None
+    spring: MappingProxyType | None = None
+    damping: float = 0.0
+    friction: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -254,6 +265,8 @@ class Scene:
                     axis=joint.axis, anchor_b=joint.anchor_b, collide=joint.collide,
                     name=joint.name, limits=joint.limits,
                     motor=None if joint.motor is None else dict(joint.motor),
+                    spring=None if joint.spring is None else dict(joint.spring),
+                    damping=joint.damping, friction=joint.friction,
                 )  # fmt: skip
             except (ValueError, NotImplementedError) as exc:
                 raise SceneError(f"{self.source}: joint[{index}]: {exc}") from exc
@@ -517,11 +530,13 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
 
 _JOINT_KEYS = (
     "kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name", "limits", "motor",
+    "spring", "damping", "friction",
 )  # fmt: skip
 # Every key some motor takes; World.add_joint judges which go together.
 _MOTOR_KEYS = (
     "velocity", "max_force", "torque", "position", "stiffness", "damping", "servo", "max_velocity",
 )  # fmt: skip
+_SPRING_KEYS = ("stiffness", "damping", "rest_length")
 
 
 def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
@@ -540,7 +555,8 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
         return body_index[name]
 
     anchor_b = _optional(table, "anchor_b", None, _vector3, where)
-    motor = _optional(table, "motor", None, _motor, where)
+    motor = _optional(table, "motor", None, _numbers_table(_MOTOR_KEYS, "motor key"), where)
+    spring = _optional(table, "spring", None, _numbers_table(_SPRING_KEYS, "spring key"), where)
     return JointSpec(
         kind=_as_string(table["kind"], where.field("kind")),
         body_a=body("body_a"),
@@ -552,6 +568,9 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
         name=_optional(table, "name", None, _as_string, where),
         limits=_optional(table, "limits", None, _limits, where),
         motor=None if motor is None else MappingProxyType(motor),
+        spring=None if spring is None else MappingProxyType(spring),
+        damping=_optional(table, "damping", 0.0, _non_negative_number, where),
+        friction=_optional(table, "friction", 0.0, _non_negative_number, where),
     )
 
 
@@ -567,11 +586,16 @@ def _limits(value, where: _Context) -> tuple[float, float]:
     return bounds[0], bounds[1]
 
 
-def _motor(value, where: _Context) -> dict:
-    """A joint's motor table: numbers by key, e.g. { velocity = 1.0, max_force = 2.0 }."""
-    table = _as_table(value, where, None)
-    _check_keys(table, _MOTOR_KEYS, where, what="motor key")
-    return {key: _number(item, where.field(key)) for key, item in table.items()}
+def _numbers_table(keys, what: str) -> Callable[[object, _Context], dict]:
+    """The check of a joint's motor or spring table: numbers by key, e.g.
+    { velocity = 1.0, max_force = 2.0 } (World.add_joint judges which go together)."""
+
+    def check(value, where: _Context) -> dict:
+        table = _as_table(value, where, None)
+        _check_keys(table, keys, where, what=what)
+        return {key: _number(item, where.field(key)) for key, item in table.items()}
+
+    return check
 
 
 def _parse_force(table, where: _Context) -> ForceSpec:

@@ -1,10 +1,11 @@
 """Joint motors: a hinge or slider driven towards a velocity or a position with a capped
-torque or force, or pushed with a set one.
+torque or force, or pushed with a set one; and, swept with them, the joints' springs,
+dampers and friction (``joint_forces``).
 
 A motor acts along its joint's axis row (``joint_rows.axis_row``: a hinge's relative
-rotation about its axis, a slider's relative travel along it) once per substep, after the
-forces and before the bodies move, so the projection that holds the joint sees the motion the
-motor gave:
+rotation about its axis, a slider's relative travel along it, a distance joint's length) once
+per substep, after the forces and before the bodies move, so the projection that holds the
+joint sees the motion the motor gave:
 
 * a velocity motor takes the impulse that brings the row's velocity J v to its target,
   clipped to the cap times the substep, with its own joint's rows held: the row's effective
@@ -21,6 +22,11 @@ motor gave:
   reaches the target in one substep, clipped to its most speed, taken with the capped
   impulse of a velocity motor.
 
+A joint's spring and damper (a distance joint's spring, a hinge's or slider's viscous
+damping) and its friction act along the same row in the same sweeps, after its motor and
+seeing the motion the motor gave, each accumulating its own impulse: a motor then works
+against the friction, and friction holds against a torque motor as against any other force.
+
 Every impulse acts equally and oppositely on the two bodies along the row, so a motor
 conserves the mechanism's total momentum as its joint does.
 """
@@ -33,6 +39,7 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.integrators import angular_velocity
+from thesis_rbd.dynamics.joint_forces import friction_impulse, spring_impulse
 from thesis_rbd.dynamics.joint_rows import (
     axis_row,
     body_pose,
@@ -45,6 +52,8 @@ from thesis_rbd.dynamics.joint_rows import (
 from thesis_rbd.dynamics.joint_set import (
     BODY_A,
     BODY_B,
+    DAMPING,
+    FRICTION,
     JOINT_KINDS,
     KIND,
     MOTOR,
@@ -55,25 +64,42 @@ from thesis_rbd.dynamics.joint_set import (
     MOTOR_TARGET,
     NO_MOTOR,
     SERVO_MOTOR,
+    SPRING_REST,
+    SPRING_STIFFNESS,
     TORQUE_MOTOR,
     VELOCITY_MOTOR,
 )
 from thesis_rbd.dynamics.joint_tree import left_solve, lu_in_place
 
-__all__ = ["MOTOR_SWEEPS", "drive_motors"]
+__all__ = ["MOTOR_SWEEPS", "drive_joints"]
 
 REVOLUTE = JOINT_KINDS["revolute"]
 
-# Gauss-Seidel sweeps over an island's velocity, position and servo motors per substep.
+# Gauss-Seidel sweeps over an island's velocity, position and servo motors, springs, dampers
+# and friction per substep.
 MOTOR_SWEEPS = 4
 
 
+@njit(allocates=False)
+def _swept(f):
+    """Whether a joint (its ``JointSet.floats`` row) takes part in the sweeps: a velocity,
+    position or servo motor, a spring, damping or friction."""
+    code = int(f[MOTOR])
+    return (
+        (code != NO_MOTOR and code != TORQUE_MOTOR)
+        or f[SPRING_STIFFNESS] > 0.0
+        or f[DAMPING] > 0.0
+        or f[FRICTION] > 0.0
+    )
+
+
 @njit
-def drive_motors(
+def drive_joints(
     h, joints, ints, floats, frozen, position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, impulse,
 ):  # fmt: skip
-    """Apply the motors of an island's ``joints`` for a substep of length h, in place.
+    """Apply the motors, springs, dampers and friction of an island's ``joints`` for a
+    substep of length h, in place.
 
     Parameters
     ----------
@@ -84,26 +110,28 @@ def drive_motors(
     frozen : (>= n,) bool
     position ... inverse_inertia_body : body arrays (``integrate_bodies``).
     impulse : (m, 7) float64
-        Each joint's impulses over the step: the motors' are added to its linear and angular
-        impulse on body a (columns 0-5) and, along the axis, to column 6.
+        Each joint's impulses over the step: the motors', springs', dampers' and friction's
+        are added to its linear and angular impulse on body a (columns 0-5), and the motors'
+        along the axis to column 6.
     """
     sweeps = 0
     for j in joints:
-        code = int(floats[j, MOTOR])
-        if code == TORQUE_MOTOR:
+        if int(floats[j, MOTOR]) == TORQUE_MOTOR:
             _apply(j, floats[j, MOTOR_TARGET] * h, ints, floats, frozen, position, orientation,
                    linear_momentum, angular_momentum, impulse)  # fmt: skip
-        elif code != NO_MOTOR:
+        if _swept(floats[j]):
             sweeps = MOTOR_SWEEPS
     if sweeps == 0:
         return
-    applied = np.zeros(len(joints))  # each motor's impulse this substep
-    rows = np.empty((8, 10))  # the motor's row, then its joint's own rows
+    # each motor's, spring's and friction's impulse this substep
+    applied = np.zeros((len(joints), 3))
+    rows = np.empty((8, 10))  # the axis row, then its joint's own rows
     moved = np.empty((8, 12))
     for _ in range(sweeps):
         for e in range(len(joints)):
             j = joints[e]
-            if int(floats[j, MOTOR]) == NO_MOTOR or int(floats[j, MOTOR]) == TORQUE_MOTOR:
+            f = floats[j]
+            if not _swept(f):
                 continue
             count, place = _motor_rows(j, ints, floats, frozen, position, orientation,
                                        inverse_mass, inverse_inertia_body, rows, moved)  # fmt: skip
@@ -113,21 +141,37 @@ def drive_motors(
             )  # fmt: skip
             if not mass > 0.0:
                 continue
-            wanted = _wanted(h, ints[j, KIND], floats[j], place, velocity, mass, applied[e])
-            cap = floats[j, MOTOR_MAX] * h
-            total = min(max(applied[e] + wanted, -cap), cap)
-            lam = total - applied[e]
-            applied[e] = total
+            motor = 0.0
+            code = int(f[MOTOR])
+            if code != NO_MOTOR and code != TORQUE_MOTOR:
+                wanted = _wanted(h, ints[j, KIND], f, place, velocity, mass, applied[e, 0])
+                cap = f[MOTOR_MAX] * h
+                total = min(max(applied[e, 0] + wanted, -cap), cap)
+                motor = total - applied[e, 0]
+                applied[e, 0] = total
+                velocity += motor / mass
+            spring = 0.0
+            if f[SPRING_STIFFNESS] > 0.0 or f[DAMPING] > 0.0:
+                spring = spring_impulse(h, f[SPRING_STIFFNESS], f[DAMPING],
+                                        f[SPRING_REST] - place, velocity, mass,
+                                        applied[e, 1])  # fmt: skip
+                applied[e, 1] += spring
+                velocity += spring / mass
+            friction = 0.0
+            if f[FRICTION] > 0.0:
+                friction = friction_impulse(h, f[FRICTION], velocity, mass, applied[e, 2])
+                applied[e, 2] += friction
+            lam = motor + spring + friction
             for k in range(count):
                 _push(j, (lam if k == 0 else -reaction[k] * lam), rows[k], ints, frozen,
                       linear_momentum, angular_momentum, impulse)  # fmt: skip
-            impulse[j, 6] += lam
+            impulse[j, 6] += motor
 
 
 @njit
 def _motor_rows(j, ints, floats, frozen, position, orientation, inverse_mass,
                 inverse_inertia_body, rows, moved):  # fmt: skip
-    """Joint j's motor row (row 0) and its own rows that act now (rows 1..), with M^-1 J^T
+    """Joint j's axis row (row 0) and its own rows that act now (rows 1..), with M^-1 J^T
     of each; returns how many, and the joint's position."""
     a, b = ints[j, BODY_A], ints[j, BODY_B]
     xa, qa = body_pose(a, position, orientation)
@@ -217,12 +261,8 @@ def _wanted(h, kind, f, place, velocity, mass, applied):
     if code == SERVO_MOTOR:
         speed = min(max(error / h, -f[MOTOR_SPEED]), f[MOTOR_SPEED])
         return mass * (speed - velocity)
-    # position: lam = h k e - beta v+, v+ = velocity + (lam - applied) / mass
-    beta = h * (f[MOTOR_STIFFNESS] * h + f[MOTOR_DAMPING])
-    total = (h * f[MOTOR_STIFFNESS] * error - beta * velocity + beta * applied / mass) / (
-        1.0 + beta / mass
-    )
-    return total - applied
+    return spring_impulse(h, f[MOTOR_STIFFNESS], f[MOTOR_DAMPING], error, velocity, mass,
+                          applied)  # fmt: skip
 
 
 @njit

@@ -20,10 +20,12 @@ conserve the total linear and angular momentum. Rows of each kind (``joint_set``
 * on b's line (prismatic): C = (p_a - p_b) . n_b and . m_b, acting at p_a on both bodies
   (b's perpendiculars turn with b): ang_b = -((p_a - x_b) x n_b);
 * at the rod's length (distance): C = |p_a - p_b| - length along d = (p_a - p_b) / |.|;
-* within limits (a limited hinge or slider, its last row): C = position - the limit it is
-  beyond, along the axis (a hinge: ang_a = axis = -ang_b; a slider: as a line row along the
-  axis). A limit acts only where it is reached: within them the row is written as zero where
-  ``active_limits_only`` asks, and the solve drops it.
+  lin = d, ang_a = r_a x d, ang_b = -(r_b x d);
+* within limits (a limited hinge, slider or distance joint, its last row): C = position -
+  the limit it is beyond, along the axis (a hinge: ang_a = axis = -ang_b; a slider: as a line
+  row along the axis; a distance joint: as a rod's row). A limit acts only where it is
+  reached: within them the row is written as zero where ``active_limits_only`` asks, and the
+  solve drops it. A rope is a distance joint with an upper limit and no rod row.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from thesis_rbd.dynamics.joint_set import (
     AXIS_B,
     BINORMAL_B,
     BODY_A,
+    FREE_LENGTH,
     JOINT_KINDS,
     LENGTH,
     LOWER,
@@ -68,8 +71,8 @@ REVOLUTE = JOINT_KINDS["revolute"]
 FIXED = JOINT_KINDS["fixed"]
 PRISMATIC = JOINT_KINDS["prismatic"]
 DISTANCE = JOINT_KINDS["distance"]
-# Rows of each kind, by code (a limited joint has one more).
-ROWS_OF_KIND = (3, 5, 6, 5, 1)
+# Equality rows of each kind, by code (a limited joint has one more).
+ROWS_OF_KIND = (3, 5, 6, 5, 1, 0)
 
 
 @njit(allocates=False)
@@ -163,11 +166,8 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
     zero = (0.0, 0.0, 0.0)
     k = first
     if kind == DISTANCE:
-        length = math.sqrt(_dot(gap, gap))
-        d = (1.0, 0.0, 0.0) if length == 0.0 else (gap[0] / length, gap[1] / length,
-                                                  gap[2] / length)  # fmt: skip
-        rbn = _cross(rb, d)
-        write_row(rows, k, d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), length - f[LENGTH])
+        lin, ang_a, ang_b, length = _along_line(ra, rb, gap)
+        write_row(rows, k, lin, ang_a, ang_b, length - f[LENGTH])
         return 1
     if kind == PRISMATIC:
         # b's line through its anchor: the offset across it, acting at p_a on both bodies
@@ -178,7 +178,7 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
             write_row(rows, k, d, _cross(ra, d), (-across[0], -across[1], -across[2]),
                    _dot(gap, d))  # fmt: skip
             k += 1
-    else:
+    elif kind != FREE_LENGTH:  # a rope's or spring's only row is its limit's
         for axis in range(3):
             d = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
             rbn = _cross(rb, d)
@@ -198,15 +198,26 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
             write_row(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
             k += 1
     if f[LOWER] > -math.inf or f[UPPER] < math.inf:
-        _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only)
+        _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only)
         k += 1
     return k - first
 
 
 @njit(allocates=False)
-def _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only):
-    """The limit row of a hinge or slider (module docstring)."""
-    lin, ang_a, ang_b, position = _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
+def _along_line(ra, rb, gap):
+    """(lin, ang_a, ang_b, length) of the anchors' distance: the row that moves them apart
+    along their line (+x where they coincide), and how far apart they are."""
+    length = math.sqrt(_dot(gap, gap))
+    d = (1.0, 0.0, 0.0) if length == 0.0 else (gap[0] / length, gap[1] / length,
+                                              gap[2] / length)  # fmt: skip
+    rbn = _cross(rb, d)
+    return d, _cross(ra, d), (-rbn[0], -rbn[1], -rbn[2]), length
+
+
+@njit(allocates=False)
+def _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only):
+    """The limit row of a hinge, slider or distance joint (module docstring)."""
+    lin, ang_a, ang_b, position = _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap)
     beyond = position - f[LOWER] if position < f[LOWER] else max(position - f[UPPER], 0.0)
     if active_limits_only and beyond == 0.0:
         zero = (0.0, 0.0, 0.0)
@@ -216,9 +227,11 @@ def _limit_row(kind, f, xa, qa, xb, qb, ra, gap, rows, k, active_limits_only):
 
 
 @njit(allocates=False)
-def _along_axis(kind, f, xa, qa, xb, qb, ra, gap):
-    """(lin, ang_a, ang_b, position) of a hinge's angle or a slider's travel: the row that
-    moves the joint along its axis, and where it is."""
+def _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap):
+    """(lin, ang_a, ang_b, position) of a hinge's angle, a slider's travel or a distance
+    joint's length: the row that moves the joint along its axis, and where it is."""
+    if kind == DISTANCE or kind == FREE_LENGTH:
+        return _along_line(ra, rb, gap)
     axis = rotate(qb, _vector(f, AXIS_B))
     if kind == REVOLUTE:
         return (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2]), _hinge_angle(f, qa, qb)
@@ -229,10 +242,11 @@ def _along_axis(kind, f, xa, qa, xb, qb, ra, gap):
 
 @njit(allocates=False)
 def axis_row(kind, f, xa, qa, xb, qb):
-    """(lin, ang_a, ang_b, position) of a hinge's or slider's motion along its axis (its
-    motor's row), and the joint's position."""
-    ra, _, gap = _frames(f, xa, qa, xb, qb)
-    return _along_axis(kind, f, xa, qa, xb, qb, ra, gap)
+    """(lin, ang_a, ang_b, position) of a hinge's, slider's or distance joint's motion along
+    its axis (the row its motor, spring, damping and friction act along), and the joint's
+    position."""
+    ra, rb, gap = _frames(f, xa, qa, xb, qb)
+    return _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap)
 
 
 @njit(allocates=False)
@@ -256,7 +270,8 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
     Position and velocity are a revolute joint's angle (rad, in (-pi, pi]) and rate, a
     prismatic joint's travel and speed, a distance joint's length and rate, all of body a
     relative to body b about / along +axis; zero for the other kinds. Gap is how far the
-    joint is from holding its position rows, angular error how far from its angular rows.
+    joint is from holding its position rows (a rope's or spring's: how far its length is
+    beyond its limits), angular error how far from its angular rows.
     """
     ra, _, gap = _frames(f, xa, qa, xb, qb)
     axis_b = rotate(qb, _vector(f, AXIS_B))
@@ -268,9 +283,12 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
     position = velocity = angle_error = 0.0
     gap_length = math.sqrt(_dot(gap, gap))
     distance = gap_length
-    if kind == DISTANCE:
+    if kind == DISTANCE or kind == FREE_LENGTH:
         position = gap_length
-        distance = abs(gap_length - f[LENGTH])
+        if kind == DISTANCE:
+            distance = abs(gap_length - f[LENGTH])
+        else:
+            distance = max(f[LOWER] - gap_length, gap_length - f[UPPER], 0.0)
         if gap_length > 0.0:
             velocity = _dot(relative, gap) / gap_length
     elif kind == PRISMATIC:

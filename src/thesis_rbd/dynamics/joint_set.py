@@ -10,27 +10,37 @@ bodies' own frames at creation, so the joint is zero where it was made:
   axis, ``normal_b x binormal_b = axis_b``);
 * body a's orientation relative to body b's at creation (``relative_orientation``: conj(q_b)
   q_a), the zero of every angle;
-* the rod length of a distance joint (the anchors' distance at creation);
+* the anchors' distance at creation (a rod's length);
 * the joint's length scale, the larger bounding radius of its bodies, which sets the
   tolerance its gap is solved to;
-* the limits of a hinge's angle (rad) or a slider's travel (m), -inf and inf where none;
+* the limits of a hinge's angle (rad), a slider's travel (m) or a distance joint's length
+  (m), -inf and inf where none;
 * its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
   or force it may use, a set torque (N m) or force (N), a position target with stiffness
   (N m/rad or N/m) and damping (N m s/rad or N s/m), or a servo (a position target held
-  rigidly, with the most torque or force and speed it may use).
+  rigidly, with the most torque or force and speed it may use);
+* the forces along its axis row that no one drives (``joint_forces``): a distance joint's
+  spring (stiffness N/m towards its rest length, m), a viscous damping (a hinge's N m s/rad,
+  a slider's or a spring's N s/m) and a hinge's or slider's Coulomb friction (N m or N),
+  zero where none.
 
 Body b is -1 for the world. Kinds and the constraint rows each one holds (``joint_rows``):
 
-=============  =====  ==============================================================
-kind           rows   held
-=============  =====  ==============================================================
-"spherical"    3      the anchors together
-"revolute"     5      the anchors together, the axes of a and b parallel
-"fixed"        6      the anchors together, the relative orientation
-"prismatic"    5      the anchor of a on b's line through the anchor along the axis,
-                      the relative orientation
-"distance"     1      the anchors at the rod's length
-=============  =====  ==============================================================
+===============  =====  ============================================================
+kind (code)      rows   held
+===============  =====  ============================================================
+"spherical"      3      the anchors together
+"revolute"       5      the anchors together, the axes of a and b parallel
+"fixed"          6      the anchors together, the relative orientation
+"prismatic"      5      the anchor of a on b's line through the anchor along the axis,
+                        the relative orientation
+"distance"       1      the anchors at the rod's length (a rod: no limits, no spring)
+``FREE_LENGTH``  0      nothing: a distance joint with limits (a rope) or a spring, its
+                        length free within its limits (``World.add_joint`` kind
+                        "distance")
+===============  =====  ============================================================
+
+A limited joint has one row more, written only where a limit is passed.
 """
 
 from __future__ import annotations
@@ -43,14 +53,17 @@ from thesis_rbd._validate import as_finite_array
 from thesis_rbd.dynamics.joint_tree import elimination_order, later_neighbours
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
 
-__all__ = ["JOINT_KINDS", "JointSet"]
+__all__ = ["FREE_LENGTH", "JOINT_KINDS", "KIND_NAMES", "JointSet"]
 
 # Kind names and their codes in the kernels (``joint_rows``).
 JOINT_KINDS = {"spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "distance": 4}
+# The code of a distance joint that holds no rod (a rope, a spring): a kind of its own in the
+# kernels, since it has no equality row.
+FREE_LENGTH = 5
+# The name of each code, as World.joints reports it.
+KIND_NAMES = (*JOINT_KINDS, "distance")
 # Kinds the design names that this version does not build yet.
 _LATER_KINDS = ("universal", "generic")
-# Arguments of add_joint this version does not build yet, with the value that means "none".
-_LATER_OPTIONS = {"spring": None, "damping": 0.0, "friction": 0.0}
 
 # Columns of ``JointSet.floats``.
 ARM_A, ARM_B, AXIS_A, AXIS_B, NORMAL_B, BINORMAL_B = 0, 3, 6, 9, 12, 15
@@ -59,12 +72,17 @@ LENGTH = 22
 SCALE = 23
 LOWER, UPPER = 24, 25
 MOTOR, MOTOR_TARGET, MOTOR_MAX, MOTOR_STIFFNESS, MOTOR_DAMPING, MOTOR_SPEED = range(26, 32)
-JOINT_FLOATS = 32
+SPRING_STIFFNESS, SPRING_REST, DAMPING, FRICTION = range(32, 36)
+JOINT_FLOATS = 36
 # Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque, a
 # position target with stiffness and damping, a servo (the position held as a constraint).
 NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
-# Kinds whose position (a hinge's angle, a slider's travel) limits bound.
-_LIMITED_KINDS = ("revolute", "prismatic")
+# Kinds with an axis a hinge turns about or a slider moves along: what motors drive and
+# friction and damping resist.
+_AXIS_KINDS = ("revolute", "prismatic")
+# Kinds whose position (a hinge's angle, a slider's travel, a distance joint's length)
+# limits bound.
+_LIMITED_KINDS = ("revolute", "prismatic", "distance")
 # Columns of ``JointSet.ints``.
 KIND, BODY_A, BODY_B = 0, 1, 2
 # An anchor may lie at most this many times a body's bounding radius from that body's centre
@@ -91,9 +109,14 @@ def _limits(kind: str, limits) -> tuple[float, float]:
     """(lower, upper) of a joint's position from ``limits`` (None: unlimited)."""
     if limits is None:
         return -np.inf, np.inf
-    if kind not in _LIMITED_KINDS:
+    if kind == "spherical":
         raise NotImplementedError(
-            f"limits on {kind!r} joints are not built yet; limits bound {_LIMITED_KINDS} joints"
+            "cone limits on spherical joints are not built yet; limits bound "
+            f"{_LIMITED_KINDS} joints"
+        )
+    if kind not in _LIMITED_KINDS:
+        raise ValueError(
+            f"a {kind!r} joint has no free motion to limit; limits bound {_LIMITED_KINDS} joints"
         )
     try:
         lower, upper = (float(v) for v in limits)
@@ -108,6 +131,11 @@ def _limits(kind: str, limits) -> tuple[float, float]:
             f"a hinge's limits lie in [-pi, pi] (its angle's range; -inf or inf for none), got "
             f"({lower}, {upper})"
         )
+    if kind == "distance" and not (0.0 <= lower and 0.0 < upper):
+        raise ValueError(
+            f"a distance joint's limits bound its length: 0 <= lower <= upper, upper > 0 (inf "
+            f"for none), got ({lower}, {upper})"
+        )
     return lower, upper
 
 
@@ -119,9 +147,9 @@ def _motor(kind: str, motor) -> tuple[float, ...]:
     if not isinstance(motor, dict):
         raise ValueError(f"motor must be a dict such as {{'velocity': 1.0, 'max_force': 2.0}}, "
                          f"got {motor!r}")  # fmt: skip
-    if kind not in _LIMITED_KINDS:
-        raise NotImplementedError(
-            f"motors on {kind!r} joints are not built yet; motors drive {_LIMITED_KINDS} joints"
+    if kind not in _AXIS_KINDS:
+        raise ValueError(
+            f"a motor drives a hinge or a slider along its axis: {_AXIS_KINDS} joints, not {kind!r}"
         )
     keys = set(motor)
     if keys == {"velocity", "max_force"}:
@@ -142,6 +170,49 @@ def _motor(kind: str, motor) -> tuple[float, ...]:
         "{'position': q, 'stiffness': k, 'damping': c[, 'max_force': f]} or "
         "{'servo': q[, 'max_force': f, 'max_velocity': w]}"
     )
+
+
+def _forces(kind: str, options: dict, length: float) -> tuple[float, float, float, float]:
+    """(spring stiffness, rest length, damping, friction) of World.add_joint's ``spring``,
+    ``damping`` and ``friction``, checked against the joint's kind; ``length`` is the anchors'
+    distance now (the rest length where none is given)."""
+    spring = options.get("spring")
+    damping = _non_negative(options.get("damping", 0.0), "damping")
+    friction = _non_negative(options.get("friction", 0.0), "friction")
+    if (damping > 0.0 or friction > 0.0) and kind not in _AXIS_KINDS:
+        field = "damping" if damping > 0.0 else "friction"
+        hint = (
+            "; a distance joint's damping is its spring's: spring={'stiffness': k, 'damping': c}"
+            if kind == "distance" and field == "damping"
+            else ""
+        )
+        raise ValueError(
+            f"{field} resists a hinge's turning or a slider's travel: {_AXIS_KINDS} joints, not "
+            f"{kind!r}{hint}"
+        )
+    if spring is None:
+        return 0.0, 0.0, damping, friction
+    if kind != "distance":
+        raise ValueError(
+            f"spring is for distance joints (a force along the anchors' line), not {kind!r}"
+        )
+    if not isinstance(spring, dict) or not {"stiffness"} <= set(spring) <= {
+        "stiffness", "damping", "rest_length"
+    }:  # fmt: skip
+        raise ValueError(
+            "spring must be a dict {'stiffness': k[, 'damping': c, 'rest_length': L]}, got "
+            f"{spring!r}"
+        )
+    stiffness = _non_negative(spring["stiffness"], "spring stiffness")
+    rest = _non_negative(spring.get("rest_length", length), "spring rest_length")
+    return stiffness, rest, _non_negative(spring.get("damping", 0.0), "spring damping"), 0.0
+
+
+def _non_negative(value, name: str) -> float:
+    number = _finite(value, name)
+    if number < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {number}")
+    return number
 
 
 def _cap(motor: dict, key: str) -> float:
@@ -197,8 +268,8 @@ class JointSet:
     def add(self, kind, body_a, body_b, anchor, axis, anchor_b, collide, name, bodies, options):
         """Validate a joint against ``bodies`` (``BodyArrays``) and append it; return its index.
 
-        See ``World.add_joint`` for the arguments; ``options`` holds ``limits`` and the
-        arguments this version does not build yet, which must be at their "none" values.
+        See ``World.add_joint`` for the arguments; ``options`` holds ``limits``, ``motor``,
+        ``spring``, ``damping`` and ``friction`` (each left out: none).
         """
         if not isinstance(kind, str) or kind not in JOINT_KINDS:
             if kind in _LATER_KINDS:
@@ -206,10 +277,6 @@ class JointSet:
                     f"joint kind {kind!r} is not built yet; choose one of {list(JOINT_KINDS)}"
                 )
             raise ValueError(f"unknown joint kind {kind!r}; choose one of {list(JOINT_KINDS)}")
-        for option, none in _LATER_OPTIONS.items():
-            value = options.get(option, none)
-            if (value is not None) if none is None else (value != none):
-                raise NotImplementedError(f"joint {option} are not built yet; leave {option} out")
         a = self._body(body_a, "body_a", bodies, allow_world=False)
         b = self._body(body_b, "body_b", bodies, allow_world=True)
         if a == b:
@@ -232,8 +299,14 @@ class JointSet:
             self._check_reach(anchor, a, b, "anchor", bodies)
             if kind == "distance":
                 self._check_reach(anchor_b, a, b, "anchor_b", bodies)
-        rod = float(np.linalg.norm(anchor - anchor_b))
-        if kind == "distance" and not rod > 0.0:
+        length = float(np.linalg.norm(anchor - anchor_b))
+        # a distance joint with limits or a spring lets its length go: no rod
+        code = JOINT_KINDS[kind]
+        if kind == "distance" and (
+            options.get("limits") is not None or options.get("spring") is not None
+        ):
+            code = FREE_LENGTH
+        if code == JOINT_KINDS["distance"] and not length > 0.0:
             raise ValueError(
                 "a distance joint needs anchor_b apart from anchor (its length is their distance)"
             )
@@ -251,15 +324,16 @@ class JointSet:
         row[NORMAL_B : NORMAL_B + 3] = quat_rotate(to_b, normal)
         row[BINORMAL_B : BINORMAL_B + 3] = quat_rotate(to_b, binormal)
         row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(to_b, q_a)
-        row[LENGTH] = rod
+        row[LENGTH] = length
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
         row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
+        row[SPRING_STIFFNESS : FRICTION + 1] = _forces(kind, options, length)
         if name is not None and (not isinstance(name, str) or not name or "\0" in name):
             raise ValueError(f"joint name must be a non-empty string, got {name!r}")
         # every check is done: nothing half-added is left when one fails
         index = len(self.names)
-        self.ints = np.vstack([self.ints, [JOINT_KINDS[kind], a, b]])
+        self.ints = np.vstack([self.ints, [code, a, b]])
         self.floats = np.vstack([self.floats, row])
         self.collide = np.append(self.collide, bool(collide))
         self.names.append(name if name is not None else f"joint{index}")
@@ -271,7 +345,7 @@ class JointSet:
             raise ValueError(f"joint must be a joint index, got {index!r}")
         if not 0 <= index < len(self):
             raise ValueError(f"no joint {index}; the world has {len(self)} joints")
-        kind = list(JOINT_KINDS)[self.ints[index, KIND]]
+        kind = KIND_NAMES[self.ints[index, KIND]]
         self.floats[index, MOTOR : MOTOR + 6] = _motor(kind, motor)
 
     @staticmethod

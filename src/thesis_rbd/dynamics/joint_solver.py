@@ -6,7 +6,8 @@ The integrator skips jointed bodies; the ``joints`` stage after it moves them in
 sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep of length h:
 
 * momenta take the forces, P += h F and L += h tau (a body the contact stage solved already
-  has its final momenta for the whole step), and the joints' motors act (``joint_motors``);
+  has its final momenta for the whole step), and the joints' motors, springs, dampers and
+  friction act (``joint_motors``);
 * positions follow the new momenta, x += h v, q turned freely with L held: symplectic Euler,
   whatever ``World.integrator`` says;
 * every joint is put back together by Newton's method on all rows of its island at once, a
@@ -35,7 +36,7 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
-from thesis_rbd.dynamics.joint_motors import drive_motors
+from thesis_rbd.dynamics.joint_motors import drive_joints
 from thesis_rbd.dynamics.joint_rows import (
     body_pose,
     joint_row_count,
@@ -96,7 +97,7 @@ def step_jointed_bodies(
         As ``integrate_bodies``: where each body began the step, for the collision stages.
     impulse : (m, 7) float64
         In: each joint's impulse on body a over the last step (the automatic substeps
-        follow it); out: over this step (``project_island``, ``drive_motors``; column 6 is
+        follow it); out: over this step (``project_island``, ``drive_joints``; column 6 is
         the motor's along the axis).
     Other parameters as ``integrate_bodies``.
 
@@ -132,7 +133,7 @@ def step_jointed_bodies(
                     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
                     external_force, drag, pf_start, pf_arm, pf_force,
                 )  # fmt: skip
-            drive_motors(
+            drive_joints(
                 h, joints, ints, floats, frozen, position, orientation, linear_momentum,
                 angular_momentum, inverse_mass, inverse_inertia_body, impulse,
             )  # fmt: skip

@@ -15,12 +15,13 @@ from thesis_rbd.dynamics.joint_set import (
     BODY_B,
     JOINT_KINDS,
     KIND,
+    KIND_NAMES,
 )
 from thesis_rbd.spatial.quaternion import quat_rotate, quat_to_matrix
 
 __all__ = ["WorldJoints"]
 
-_KIND_NAMES = np.array(list(JOINT_KINDS))
+_KIND_NAMES = np.array(KIND_NAMES)
 # Kinds whose axis means something to someone looking at them: a hinge's and a slider's.
 _AXIS_KINDS = np.array([JOINT_KINDS["revolute"], JOINT_KINDS["prismatic"]])
 
@@ -40,8 +41,10 @@ class WorldJoints:
         Parameters
         ----------
         kind : {"spherical", "revolute", "fixed", "prismatic", "distance"}
-            Ball joint, hinge about ``axis``, weld, slider along ``axis``, or a rod holding
-            ``anchor`` and ``anchor_b`` at their distance now.
+            Ball joint, hinge about ``axis``, weld, slider along ``axis``, or a distance
+            joint between ``anchor`` and ``anchor_b``: a rod holding them at their distance
+            now, or with ``limits`` or a ``spring``, a rope or spring whose length is free
+            within its limits.
         body_a : int
         body_b : int or None
             None joins body_a to the world.
@@ -52,7 +55,8 @@ class WorldJoints:
         anchor_b : (3,) array_like, optional
             A distance joint's point on body_b (world, now).
         limits : (lower, upper), optional
-            Bounds of a hinge's angle (rad, within [-pi, pi]) or a slider's travel (m),
+            Bounds of a hinge's angle (rad, within [-pi, pi]), a slider's travel (m) or a
+            distance joint's length (m, 0 <= lower <= upper: a rope of length L is (0, L)),
             -inf / inf for none: a one-sided row that acts only where a limit is reached,
             held at the end of every substep (no overshoot, no bounce).
         motor : dict, optional
@@ -63,8 +67,17 @@ class WorldJoints:
             N/m) and damper (N m s/rad or N s/m); ``{"servo": q, "max_force": f,
             "max_velocity": w}`` holds q as a constraint within f and w. Caps left out are
             unlimited.
-        spring, damping, friction
-            Not built yet: leave them out (a clear error says so).
+        spring : dict, optional
+            A distance joint's spring, ``{"stiffness": k, "damping": c, "rest_length": L}``
+            (N/m, N s/m, m; damping 0 and the anchors' distance now where left out): a force
+            k (L - length) - c rate along the anchors' line, taken implicitly (stable at any
+            stiffness). A spring holds no rod: add ``limits`` to bound its length.
+        damping : float
+            A hinge's (N m s/rad) or slider's (N s/m) viscous damping: a torque or force of
+            -damping times its rate, taken implicitly.
+        friction : float
+            A hinge's (N m) or slider's (N) Coulomb friction: at most this torque or force
+            against its rate, enough to hold it still under less.
         collide : bool
             Whether body_a and body_b still collide with each other (False by default).
         name : str, optional
