@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from scipy.special import ellipk
 
 import thesis_rbd as rbd
+from thesis_rbd.collision.pipeline import some_pair_may_collide
 from thesis_rbd.dynamics.joint_rows import joint_rows
 from thesis_rbd.dynamics.joint_set import JOINT_KINDS
 from thesis_rbd.dynamics.joint_tree import (
@@ -697,6 +698,33 @@ def test_collision_groups_and_masks_follow_bullets_rule(group_a, mask_a, group_b
     world.step()
     assert collide == (bool(group_a & mask_b) and bool(group_b & mask_a))
     assert (len(world.contacts["body_a"]) > 0) == collide
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 7), st.integers(0, 7), st.booleans(), st.booleans()),
+        min_size=0, max_size=6,
+    )
+)  # fmt: skip
+def test_some_pair_may_collide_agrees_with_every_pair(specs):
+    """The planner's test of whether any pair may collide (over kinds of bodies) agrees
+    with the pair-by-pair rule; a world with no such pair plans no collision stage."""
+    world = rbd.World(dt=1 / 240)
+    for k, (group, mask, static, collidable) in enumerate(specs):
+        world.add_body(
+            rbd.shapes.box(), position=(3.0 * k, 0, 0), static=static, collidable=collidable,
+            collision_group=group, collision_mask=mask,
+        )  # fmt: skip
+    expected = any(
+        a[3] and b[3] and not (a[2] and b[2]) and (a[0] & b[1]) and (b[0] & a[1])
+        for i, a in enumerate(specs)
+        for b in specs[i + 1 :]
+    )
+    assert some_pair_may_collide(world.bodies) == expected
+    world.step()
+    moving = any(not spec[2] for spec in specs)
+    assert (world.profile["bounds"]["calls"] > 0) == (expected and moving)
 
 
 @pytest.mark.parametrize("value", [-1, 1.5, True, 2**62])

@@ -74,38 +74,17 @@ def test_ragdoll_lands_whole_and_holds_its_joints_and_limits_at_the_end(run):
     assert _within_limits(run["hinge"][-1], run["limits"])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the time of impact steps each jointed body back to its own time of impact "
-    "(impact_groups joins bodies by contacts only): at the first touch (t = 0.321 s) the "
-    "torso goes back 11.4 mm and the head and pelvis 1.4 mm, and resolve_impacts brings only "
-    "the not yet stepped-back segments to the island's time, so the neck, waist and hips open "
-    "10 mm; the next steps' projections feed the gaps back as velocity and the landing "
-    "repeats it, gap > 1 mm for 54 steps, elbows 3.3 degrees past their limit",
-)
 def test_ragdoll_joints_and_limits_hold_through_the_landing(run):
     """After every step: every anchor gap under 1 mm and every hinge within its limits."""
     assert run["gap"].max() <= GAP
     assert all(_within_limits(angles, run["limits"]) for angles in run["hinge"])
 
 
-LIMITS_OUTSIDE_CONTACTS = pytest.mark.xfail(
-    strict=True,
-    reason="contacts are solved with the joints' equality rows only, and the limits act "
-    "afterwards in the joints stage: limbs lying on the steps against their limits (straight "
-    "elbows and knees) slide at the friction cone's edge, the ragdoll creeps down the stairs "
-    "(5 mm/s at 2 s, 1.5 mm/s at 20 s) and never sleeps, and the forearms stay 1.0-1.25 mm "
-    "into the landing (bound 0.8 mm); without the hinge limits the same scene sleeps at 0.98 s",
-)
-
-
-@LIMITS_OUTSIDE_CONTACTS
 def test_ragdoll_comes_to_rest(run):
     """Every segment asleep by the end of the run (the landing is over by 0.53 s)."""
     assert run["asleep"][-1]
 
 
-@LIMITS_OUTSIDE_CONTACTS
 def test_ragdoll_penetration_within_the_suite_bound_once_landed(run):
     """Once the landing is over (kinetic energy under 1 % of its peak), no contact deeper
     than 1 % of the thinner body."""

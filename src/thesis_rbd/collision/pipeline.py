@@ -27,7 +27,7 @@ from thesis_rbd.collision.convex.hull_data import HullSet
 from thesis_rbd.collision.mesh.narrow_phase import GeometrySet, contacts_for_pairs
 from thesis_rbd.collision.touching import pairs_touch
 
-__all__ = ["NARROW_PHASES", "CollisionPipeline"]
+__all__ = ["NARROW_PHASES", "CollisionPipeline", "some_pair_may_collide"]
 
 # "auto": pairs of convex bodies by convex-polyhedron contact, the others by the OBBTree;
 # "mesh": the OBBTree for every pair
@@ -383,6 +383,33 @@ class CollisionPipeline:
             pairs, self.hull_of_body, self._hull_arrays, self.hulls.longest_loop,
             self._query_scratch, *state, cache, SPECULATIVE_FRACTION, self._reach,
         )  # fmt: skip
+
+
+def some_pair_may_collide(bodies) -> bool:
+    """Whether any two of ``bodies`` (``BodyArrays``) may ever collide: both collidable, not
+    both static, and each one's collision group meeting the other's mask (the rule of
+    ``CollisionPipeline.update``, pair exclusions aside). A scene with none runs no collision
+    stage (a chain whose links collide with nothing pays for no bounds or broad phase).
+
+    Bodies with the same (group, mask, static) collide alike, so the test runs over those
+    kinds, few in any scene, not over the pairs of bodies.
+    """
+    may = bodies.collidable & (bodies.collision_group != 0) & (bodies.collision_mask != 0)
+    if np.count_nonzero(may) < 2:
+        return False
+    kinds, counts = np.unique(
+        np.stack(
+            [bodies.collision_group[may], bodies.collision_mask[may], bodies.static[may]], axis=1
+        ),
+        axis=0,
+        return_counts=True,
+    )
+    group, mask, static = kinds[:, 0], kinds[:, 1], kinds[:, 2].astype(bool)
+    meets = ((group[:, None] & mask[None, :]) != 0) & ((group[None, :] & mask[:, None]) != 0)
+    meets &= ~(static[:, None] & static[None, :])
+    # a kind pairs with itself only if it has two bodies
+    meets[np.diag_indices(len(kinds))] &= counts >= 2
+    return bool(meets.any())
 
 
 def _place_between(body, fraction, start_position, start_orientation, end_position,

@@ -419,6 +419,13 @@ class JointSet:
             tree, neighbour_start, neighbour,
         )  # fmt: skip
 
+    def moving_links(self, moving: np.ndarray) -> np.ndarray:
+        """(p, 2) int64 body pairs of the joints between two ``moving`` (n,) bool bodies."""
+        a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]
+        keep = b >= 0
+        keep[keep] = moving[a[keep]] & moving[b[keep]]
+        return np.stack([a, b], axis=1)[keep].astype(np.int64).reshape(-1, 2)
+
     def excluded_pairs(self) -> np.ndarray:
         """(p, 2) int64 body pairs (low, high) that must not collide: jointed, collide=False."""
         a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]

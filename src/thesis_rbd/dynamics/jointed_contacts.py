@@ -21,9 +21,11 @@ has not converged and the settings allow (``contact_solver.exact_contact_impulse
 Restitution is Poisson's, as ``island_solver.solve_islands`` gives it. K is factorised by
 ``joint_tree.lu_in_place``, which drops the redundant rows of closed loops.
 
-Only a joint's equality rows take part: its limit and motor act in the joints stage, which
-also removes what is left of the joints' error at position level after the step
-(``joint_solver``).
+A joint's equality rows are held through P; its limits take part as one-sided rows beside
+the contacts, speculative as contacts are (a knee pressed on its limit by a body resting on
+it stays there, instead of the contacts letting it through and the joints stage pushing it
+back every step). Motors act in the joints stage, which also removes what is left of the
+joints' error at position level after the step (``joint_solver``).
 """
 
 from __future__ import annotations
@@ -36,8 +38,16 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_solver import exact_contact_impulses
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
-from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, body_pose, joint_rows
-from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B, KIND
+from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, axis_row, body_pose, joint_rows
+from thesis_rbd.dynamics.joint_set import (
+    BODY_A,
+    BODY_B,
+    JOINT_KINDS,
+    KIND,
+    LOWER,
+    SCALE,
+    UPPER,
+)
 from thesis_rbd.dynamics.joint_tree import left_solve, lu_in_place
 from thesis_rbd.dynamics.pgs import project_onto_polygon
 
@@ -50,6 +60,10 @@ _MOST_ROWS = 7
 _IMMOVABLE = 1e-9
 # The Lemke fallback's PGS sweeps, as ``contact_solver.solve_exact``'s.
 _FALLBACK_SWEEPS = 200
+# The most rows a rebounding island is solved exactly with where PGS has not converged, as
+# ``island_solver.REBOUND_EXACT_CONTACTS`` (a row of 20 touching polyhedral balls).
+_REBOUND_EXACT_ROWS = 160
+REVOLUTE = JOINT_KINDS["revolute"]
 
 
 @njit
@@ -117,48 +131,110 @@ def solve_jointed_island(
     r = joint_jacobian.shape[0]
     K = joint_jacobian @ joint_response.T
     kept = lu_in_place(K, r)
-    contact_jacobian = _contact_jacobian(s, e, body_a, body_b, arm_a, arm_b, basis, local, size)
-    free_response = _times_inverse_mass(contact_jacobian, bodies, inverse_mass, inverse_inertia)
-    # D = P J_c^T, row per contact row: the velocity change (6 per body) of a unit impulse
+    c = e - s
+    # the contacts' rows, then each limit's as a frictionless contact of its own
+    limit_jacobian, limit_bias, limit_scale = _limit_rows(
+        joints, ints, floats, local, position, orientation, size, settings[cs.DT]
+    )
+    rows = np.vstack(
+        (_contact_jacobian(s, e, body_a, body_b, arm_a, arm_b, basis, local, size), limit_jacobian)
+    )
+    l = limit_bias.shape[0]
+    row_bias = np.concatenate((bias[s:e], limit_bias))
+    row_friction = np.concatenate((friction[s:e], np.zeros(l)))
+    row_tolerance = np.concatenate((tolerance[s:e], tolerance[s:e].min() / limit_scale))
+    free_response = _times_inverse_mass(rows, bodies, inverse_mass, inverse_inertia)
+    # D = P J^T, one row per row of ``rows``: the velocity change (6 per body) of a unit
+    # impulse along it with the joints held
     D = free_response.copy()
     for row in range(D.shape[0]):
         _hold_joints(D[row], joint_jacobian, joint_response, K, kept)
-    A = contact_jacobian @ D.T
+    A = rows @ D.T
     free_diagonal = np.empty(A.shape[0])
     for row in range(A.shape[0]):
-        free_diagonal[row] = contact_jacobian[row] @ free_response[row]
+        free_diagonal[row] = rows[row] @ free_response[row]
     velocity = _gather(bodies, v, w)
     _hold_joints(velocity, joint_jacobian, joint_response, K, kept)
-    answer = impulse[s:e].copy()
+    answer = np.zeros((c + l, 3))
+    answer[:c] = impulse[s:e]
     rebounds = False
     for k in range(s, e):
         rebounds |= bounce[k] > 0.0
     exact_limit = int(settings[cs.EXACT_LIMIT])
     if rebounds:
-        exact_limit = max(exact_limit, 160)
+        exact_limit = max(exact_limit, _REBOUND_EXACT_ROWS)
     _solve(
-        settings, polygon, A, free_diagonal, contact_jacobian @ velocity, bias[s:e],
-        friction[s:e], tolerance[s:e], exact_limit, answer, stats,
+        settings, polygon, A, free_diagonal, rows @ velocity, row_bias, row_friction,
+        row_tolerance, exact_limit, answer, stats,
     )  # fmt: skip
     velocity += D.T @ answer.ravel()
     if rebounds:
         # Poisson: e times each compression impulse back, then an inelastic pass from the
         # velocities it left, so that no contact approaches after it
         extra = np.zeros_like(answer)
-        for k in range(e - s):
+        for k in range(c):
             extra[k, 0] = bounce[s + k] * answer[k, 0]
         velocity += D.T @ extra.ravel()
         answer += extra
         second = np.zeros_like(answer)
-        row_bias = np.where(np.isfinite(bias[s:e]), 0.0, np.inf)
         _solve(
-            settings, polygon, A, free_diagonal, contact_jacobian @ velocity, row_bias,
-            friction[s:e], tolerance[s:e], exact_limit, second, stats,
+            settings, polygon, A, free_diagonal, rows @ velocity,
+            np.where(np.isfinite(row_bias), 0.0, np.inf), row_friction, row_tolerance,
+            exact_limit, second, stats,
         )  # fmt: skip
         velocity += D.T @ second.ravel()
         answer += second
-    impulse[s:e] = answer
+    impulse[s:e] = answer[:c]
     _scatter(bodies, velocity, v, w)
+
+
+@njit
+def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
+    """The one-sided rows of the island's limits (a hinge's angle, a slider's travel, a
+    rope's length), three per limit as a contact's (its direction, then two zero rows).
+
+    A lower limit's row is the joint's axis row (``joint_rows.axis_row``), an upper limit's
+    its negative, so that a positive impulse pushes the joint back within its limits; the
+    bias lets it close the gap to its limit over the step and no more (a speculative limit:
+    it stops on the limit as a contact stops on a floor), and a limit passed already takes
+    no further approach (the joints stage puts it back on the limit). Returns the rows
+    (3 l, 6 k), their biases (l,) and their scales (l,): the joint's length for an angle
+    (m per rad: the contact tolerances are speeds), else 1.
+    """
+    count = 0
+    for j in joints:
+        count += (floats[j, LOWER] > -np.inf) + (floats[j, UPPER] < np.inf)
+    J = np.zeros((3 * count, size))
+    bias = np.empty(count)
+    scale = np.ones(count)
+    row = 0
+    for j in joints:
+        f = floats[j]
+        if not (f[LOWER] > -np.inf or f[UPPER] < np.inf):
+            continue
+        kind = ints[j, KIND]
+        a, b = ints[j, BODY_A], ints[j, BODY_B]
+        xa, qa = body_pose(a, position, orientation)
+        xb, qb = body_pose(b, position, orientation)
+        lin, ang_a, ang_b, where = axis_row(kind, f, xa, qa, xb, qb)
+        for side in range(2):
+            limit = f[LOWER] if side == 0 else f[UPPER]
+            if not math.isfinite(limit):
+                continue
+            sign = 1.0 if side == 0 else -1.0
+            bias[row] = max(sign * (where - limit), 0.0) / dt
+            if kind == REVOLUTE:
+                scale[row] = f[SCALE]
+            for end in range(2):
+                body = a if end == 0 else b
+                if body < 0 or local[body] < 0:
+                    continue
+                column = 6 * local[body]
+                for i in range(3):
+                    J[3 * row, column + i] = sign * (lin[i] if end == 0 else -lin[i])
+                    J[3 * row, column + 3 + i] = sign * (ang_a[i] if end == 0 else ang_b[i])
+            row += 1
+    return J, bias, scale
 
 
 @njit

@@ -56,10 +56,12 @@ HALVINGS = 12
 
 
 @njit
-def impact_groups(body_count, body_a, body_b, hits, travelled):
+def impact_groups(body_count, body_a, body_b, hits, travelled, links):
     """Group the bodies that go back in time together: the ``travelled`` (n,) bool bodies
     joined by a contact to a travelled body of a hit contact (``hits`` (c,) bool), directly
-    or through other travelled ones.
+    or through other travelled ones, and the moving bodies jointed to them (``links``
+    (p, 2) int64: a body stepped back without its jointed partner would pull their joint
+    apart).
 
     Travelled bodies in contact move together over the step (two touching cubes flying into
     a third): stepping one back to its time of impact and not the other would leave them
@@ -69,6 +71,12 @@ def impact_groups(body_count, body_a, body_b, hits, travelled):
     (n,) int64: the group of each such body, -1 elsewhere, and the number of groups.
     """
     parent = np.arange(body_count)
+    travelled = travelled.copy()
+    for k in range(links.shape[0]):
+        a, b = links[k, 0], links[k, 1]
+        if travelled[a] or travelled[b]:
+            travelled[a] = travelled[b] = True
+            join(parent, a, b)
     for k in range(body_a.shape[0]):
         if travelled[body_a[k]] and travelled[body_b[k]]:
             join(parent, body_a[k], body_b[k])
@@ -166,7 +174,8 @@ def passed_through(detector, contacts, receding, start_position, start_orientati
 
 
 def step_back_to_impact(
-    detector, bodies, contacts, hits, allowed, travelled, v, acceleration, reach_back, cache
+    detector, bodies, contacts, hits, allowed, travelled, links, v, acceleration, reach_back,
+    cache,
 ):  # fmt: skip
     """Step each group of movers with a hit contact back to its time of impact.
 
@@ -187,6 +196,8 @@ def step_back_to_impact(
         (the group goes back to when it first touched).
     travelled : (n,) bool
         Bodies that moved more than their slop over the step (``impact_groups``).
+    links : (p, 2) int64
+        Jointed pairs of moving bodies: they go back together (``impact_groups``).
     v : (n, 3) float64
         Velocities at the end of the step; stepped-back bodies get those of their time of
         impact (their angular momenta, the bodies', are kept: torque-free spin).
@@ -209,7 +220,7 @@ def step_back_to_impact(
     n = bodies.count
     rewind = np.zeros(n)
     body_a, body_b = contacts["body_a"], contacts["body_b"]
-    group, groups = impact_groups(n, body_a, body_b, hits, travelled)
+    group, groups = impact_groups(n, body_a, body_b, hits, travelled, links)
     position, orientation = bodies.full("position"), bodies.full("orientation")
     renewed = np.zeros(len(body_a), bool)
     deeper = hits & np.isfinite(allowed)

@@ -40,7 +40,7 @@ import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.collision.contact_set import ContactSet
-from thesis_rbd.collision.pipeline import CollisionPipeline
+from thesis_rbd.collision.pipeline import CollisionPipeline, some_pair_may_collide
 from thesis_rbd.dynamics.bodies import BodyArrays
 from thesis_rbd.dynamics.body_builder import body_fields
 from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION, ContactSettings
@@ -368,12 +368,7 @@ class World(WorldReadout, WorldJoints):
         n = b.count
         dynamic = bool(n) and not bool(np.all(b.static))
         gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
-        collidable = b.collidable
-        collides = (
-            dynamic
-            and int(np.count_nonzero(collidable)) >= 2
-            and not bool(np.all(b.static[collidable]))
-        )
+        collides = dynamic and some_pair_may_collide(b)
         responds = collides and self.contact_response
         toi = responds and self.contact_settings.penetration == "toi"
         # bodies come to rest through contact: without collisions nothing would sleep
@@ -690,8 +685,8 @@ class World(WorldReadout, WorldJoints):
         acceleration = np.where(solved[:, None], 0.0, s.external_force * b.inverse_mass[:, None])
         unrewound = (b.position.copy(), b.orientation.copy())
         rewind, c = step_back_to_impact(
-            detector, b, c, hits, np.where(deeper, allowed, -np.inf), travelled, v,
-            acceleration, reach_back, s.convex_cache,
+            detector, b, c, hits, np.where(deeper, allowed, -np.inf), travelled,
+            self._joints.moving_links(movers), v, acceleration, reach_back, s.convex_cache,
         )  # fmt: skip
         rewound = rewind > 0
         # the stepped-back bodies carry the velocity of their time of impact
