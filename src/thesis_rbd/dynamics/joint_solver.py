@@ -16,10 +16,12 @@ sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep
   -C for the errors C where the bodies are now; every correction is fed back into the
   momenta as dlam / h, so the velocities are the substep's displacement over h (projecting
   positions alone loses (h w)^2 of the kinetic energy per step, and directions taken at the
-  end of the substep lose energy too). Iterations stop once every row holds to 1e-12 of the
-  joint's scale (1e-12 rad for angular rows). The matrix is made and factorised at the first
-  iterate only (later ones differ from it by the correction's round-off), and again where a
-  limit is reached or left on the way.
+  end of the substep lose energy too). Iterations stop once every row holds to 1e-10 of the
+  joint's scale (1e-10 rad for angular rows; each iteration gains about two digits, and a
+  tighter bound costs an iteration in four for gaps already a million times below any
+  joint's tolerance). The matrix is made and factorised at the first iterate only (later
+  ones differ from it by the correction's size), and again where a limit is reached or left
+  on the way; a factor kept from one substep to the next converges too slowly to pay.
 
 The Newton matrix is factorised as L U with rows of a vanishing pivot dropped
 (``joint_tree``): block by block in linear time where the island is a tree, whole where it has
@@ -54,6 +56,7 @@ __all__ = [
     "MOST_SUBSTEPS",
     "auto_substeps",
     "project_island",
+    "projection_scratch",
     "step_jointed_bodies",
 ]
 
@@ -66,7 +69,7 @@ _STIFF_STEP = 0.4
 # Most substeps of a step.
 MOST_SUBSTEPS = 64
 # Rows hold once |C| is at most this fraction of the joint's scale (or in radians).
-_TOLERANCE = 1e-12
+_TOLERANCE = 1e-10
 
 
 @njit
@@ -126,6 +129,10 @@ def step_jointed_bodies(
                 for k in range(4):
                     start_orientation[i, k] = orientation[i, k]
         first, last = joint_start[island], joint_start[island + 1]
+        tree = island_tree[island]
+        scratch = projection_scratch(
+            joints, bodies, ints, floats, neighbour_start[first : last + 1], neighbour, tree
+        )
         for _ in range(parts):
             for i in bodies:
                 _kick(
@@ -141,10 +148,9 @@ def step_jointed_bodies(
                 _drift(i, h, position, orientation, linear_momentum, angular_momentum,
                        inverse_mass, inverse_inertia_body)  # fmt: skip
             project_island(
-                h, joints, bodies, island_tree[island], neighbour_start[first : last + 1],
-                neighbour, ints, floats, frozen, substep_position, substep_orientation,
-                position, orientation, linear_momentum, angular_momentum, inverse_mass,
-                inverse_inertia_body, impulse,
+                h, joints, bodies, tree, ints, floats, frozen, substep_position,
+                substep_orientation, position, orientation, linear_momentum, angular_momentum,
+                inverse_mass, inverse_inertia_body, impulse, scratch,
             )  # fmt: skip
         for i in bodies:
             if not math.isfinite(
@@ -212,10 +218,40 @@ def auto_substeps(dt, joints, ints, floats, inverse_mass, impulse):
 
 
 @njit
+def projection_scratch(joints, bodies, ints, floats, neighbour_start, neighbour, tree):
+    """The arrays ``project_island`` works in for one island, made once per step and
+    reused by every substep: the rows at the substep's start and now (r, 10), each row's
+    joint (r,) and its bodies' places among ``bodies`` (r, 2) (-1: the world or frozen),
+    M^-1 J^T (r, 12), the block layout of a tree or the dense matrix of a loop, the Newton
+    step (r,), the per-body turns (b, 3), the rows kept (r,) and the rows written when the
+    factor was made (r,). Arguments as ``project_island``'s."""
+    size = 0
+    for j in joints:
+        size += joint_row_count(ints[j, KIND], floats[j])
+    row_joint = np.empty(size, np.int64)
+    row_body = np.empty((size, 2), np.int64)
+    r = 0
+    for j in joints:
+        for _ in range(joint_row_count(ints[j, KIND], floats[j])):
+            row_joint[r] = j
+            for side in range(2):
+                body = ints[j, BODY_A + side]
+                row_body[r, side] = -1 if body < 0 else np.searchsorted(bodies, body)
+            r += 1
+    layout = _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree)
+    K = np.empty((0, 0)) if tree else np.empty((size, size))
+    return (
+        np.empty((size, 10)), np.empty((size, 10)), row_joint, row_body,
+        np.empty((size, 12)), layout, K, np.empty(size), np.empty((len(bodies), 3)),
+        np.ones(size, np.bool_), np.zeros(size, np.bool_),
+    )  # fmt: skip
+
+
+@njit
 def project_island(
-    dt, joints, bodies, tree, neighbour_start, neighbour, ints, floats, frozen, saved_position,
-    saved_orientation, position, orientation, linear_momentum, angular_momentum, inverse_mass,
-    inverse_inertia_body, impulse,
+    dt, joints, bodies, tree, ints, floats, frozen, saved_position, saved_orientation,
+    position, orientation, linear_momentum, angular_momentum, inverse_mass,
+    inverse_inertia_body, impulse, scratch,
 ):  # fmt: skip
     """Hold the ``joints`` of one island at the end of a substep of length dt (module
     docstring), in place.
@@ -229,10 +265,9 @@ def project_island(
         The island's joints, in elimination order.
     bodies : (b,) int64
         The island's moving bodies, increasing.
-    tree, neighbour_start, neighbour
-        Whether the island is a tree, and then its joints' later neighbours (the slices of
-        ``JointSet.islands``'s arrays for these joints: j + 1 starts, counted from any base):
-        a tree is solved by ``joint_tree`` in time linear in its joints, a loop densely.
+    tree : bool
+        Whether the island is a tree (solved by ``joint_tree`` in time linear in its
+        joints) or has a loop (solved densely).
     frozen : (>= n,) bool
         Static or asleep bodies: immovable here.
     saved_position, saved_orientation : (>= n, 3), (>= n, 4) float64
@@ -242,26 +277,18 @@ def project_island(
     impulse : (m, 6) float64
         Each joint's linear and angular impulse on body a (the latter about a's centre of
         mass), N s and N m s, world frame: this projection's are added.
+    scratch : tuple
+        ``projection_scratch`` of the island.
     """
     h = dt
-    size = 0
-    for j in joints:
-        size += joint_row_count(ints[j, KIND], floats[j])
+    rows, current, row_joint, row_body, moved, layout, K, step, spin, kept, factored_rows = scratch
+    size = rows.shape[0]
     # the rows' directions at the start of the substep (SHAKE): M^-1 J^T per row
-    rows = np.empty((size, 10))
-    row_joint = np.empty(size, np.int64)
     _island_rows(joints, ints, floats, saved_position, saved_orientation, rows, row_joint, False)
-    moved = np.empty((size, 12))
     row_responses(rows, row_joint, size, ints, frozen, saved_orientation, inverse_mass,
                   inverse_inertia_body, moved)  # fmt: skip
-    layout = _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree)
-    K = np.empty((0, 0)) if tree else np.empty((size, size))
-    current = np.empty((size, 10))
-    step = np.empty(size)
-    spin = np.empty((len(bodies), 3))
-    kept = np.ones(size, np.bool_)
     factored = False
-    factored_rows = np.zeros(size, np.bool_)  # the rows written when the factor was made
+    factored_rows[:] = False  # the rows written when the factor was made
     for _ in range(JOINT_ITERATIONS):
         # the errors where the bodies are now
         _island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
@@ -309,7 +336,7 @@ def project_island(
                 if body < 0 or frozen[body]:
                     continue
                 sign = 1.0 if side == 0 else -1.0
-                local = np.searchsorted(bodies, body)
+                local = row_body[k, side]
                 for c in range(3):
                     spin[local, c] += lam * moved[k, 6 * side + 3 + c]
                     position[body, c] += lam * moved[k, 6 * side + c]
