@@ -339,8 +339,7 @@ def test_bad_joint_forces_are_refused_naming_the_field(message):
 
 @pytest.mark.parametrize(
     ("kind", "options", "message"),
-    [("universal", {}, "'universal' is not built yet"), ("generic", {}, "'generic' is not"),
-     ("spherical", {"limits": (0.0, 1.0)}, "cone limits on spherical joints are not built")],
+    [("universal", {}, "'universal' is not built yet"), ("generic", {}, "'generic' is not")],
 )  # fmt: skip
 def test_what_is_not_built_yet_says_so(kind, options, message):
     world = rbd.World()

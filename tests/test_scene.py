@@ -334,7 +334,7 @@ FAULTS = {
     ),
     "limit not a number": (
         f'[[body]]\nname = "a"\n{BOX}\n{JOINT}limits = [nan, 1.0]\n',
-        ["joint[0]", "field 'limits'", "two numbers"],
+        ["joint[0]", "field 'limits'", "must be numbers"],
     ),
     "unknown motor key": (
         f'[[body]]\nname = "a"\n{BOX}\n{JOINT}motor = {{ speed = 1.0 }}\n',

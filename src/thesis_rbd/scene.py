@@ -167,7 +167,7 @@ class JointSpec:
     anchor_b : (3,) float ndarray or None
     collide : bool
     name : str or None
-    limits : (lower, upper) of float or None
+    limits : (lower, upper) or (cone, twist_lo, twist_hi) of float, or None
         -inf / inf for an open side; None: no limits.
     motor : Mapping or None
         The motor table as written (numbers by key); None: no motor.
@@ -185,7 +185,7 @@ class JointSpec:
     anchor_b: np.ndarray | None
     collide: bool
     name: str | None
-    limits: tuple[float, float] | None = None
+    limits: tuple[float, ...] | None = None
     motor: MappingProxyType | None = None
     spring: MappingProxyType | None = None
     damping: float = 0.0
@@ -574,16 +574,18 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
     )
 
 
-def _limits(value, where: _Context) -> tuple[float, float]:
-    """A joint's (lower, upper): two numbers, inf / -inf for an open side (TOML's inf)."""
-    if not isinstance(value, list) or len(value) != 2:
-        where.fail(f"must be [lower, upper], got {_describe(value)}")
+def _limits(value, where: _Context) -> tuple[float, ...]:
+    """A joint's limits: [lower, upper], or a spherical joint's [cone, twist_lo, twist_hi];
+    numbers, inf / -inf for an open side (TOML's inf). World.add_joint judges which kind
+    takes which."""
+    if not isinstance(value, list) or len(value) not in (2, 3):
+        where.fail(f"must be [lower, upper] or [cone, twist_lo, twist_hi], got {_describe(value)}")
     bounds = []
     for item in value:
         if isinstance(item, bool) or not isinstance(item, int | float) or math.isnan(item):
-            where.fail(f"must be two numbers (inf or -inf for an open side), got {value!r}")
+            where.fail(f"must be numbers (inf or -inf for an open side), got {value!r}")
         bounds.append(float(item))
-    return bounds[0], bounds[1]
+    return tuple(bounds)
 
 
 def _numbers_table(keys, what: str) -> Callable[[object, _Context], dict]:

@@ -43,6 +43,7 @@ from thesis_rbd.dynamics.joint_set import (
     AXIS_B,
     BINORMAL_B,
     BODY_A,
+    CONE,
     FREE_LENGTH,
     JOINT_KINDS,
     LENGTH,
@@ -56,6 +57,7 @@ from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 __all__ = [
     "axis_row",
     "body_pose",
+    "cone_angle",
     "joint_readout",
     "joint_row_count",
     "joint_rows",
@@ -77,9 +79,10 @@ ROWS_OF_KIND = (3, 5, 6, 5, 1, 0)
 
 @njit(allocates=False)
 def joint_row_count(kind, f):
-    """Rows of a joint: its kind's, and one for its limits if it has any."""
+    """Rows of a joint: its kind's, one for a spherical joint's cone if it has one, and one
+    for its limits if it has any."""
     limited = f[LOWER] > -math.inf or f[UPPER] < math.inf
-    return ROWS_OF_KIND[kind] + (1 if limited else 0)
+    return ROWS_OF_KIND[kind] + (1 if f[CONE] < math.inf else 0) + (1 if limited else 0)
 
 
 @njit(allocates=False)
@@ -197,6 +200,14 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
             e = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
             write_row(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
             k += 1
+    if f[CONE] < math.inf:
+        n, angle = cone_angle(f, qa, qb)
+        beyond = max(angle - f[CONE], 0.0)
+        if active_limits_only and beyond == 0.0:
+            write_row(rows, k, zero, zero, zero, 0.0)
+        else:
+            write_row(rows, k, zero, n, (-n[0], -n[1], -n[2]), beyond)
+        k += 1
     if f[LOWER] > -math.inf or f[UPPER] < math.inf:
         _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only)
         k += 1
@@ -235,6 +246,9 @@ def _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap):
     axis = rotate(qb, _vector(f, AXIS_B))
     if kind == REVOLUTE:
         return (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2]), _hinge_angle(f, qa, qb)
+    if kind == SPHERICAL:
+        t, twist = _twist(f, qa, qb, axis)
+        return (0.0, 0.0, 0.0), t, (-t[0], -t[1], -t[2]), twist
     arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
     across = _cross(arm, axis)
     return axis, _cross(ra, axis), (-across[0], -across[1], -across[2]), _dot(gap, axis)
@@ -247,6 +261,50 @@ def axis_row(kind, f, xa, qa, xb, qb):
     position."""
     ra, rb, gap = _frames(f, xa, qa, xb, qb)
     return _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap)
+
+
+@njit(allocates=False)
+def cone_angle(f, qa, qb):
+    """(n, angle): the angle (rad, in [0, pi]) between the axis fixed in body a and the axis
+    fixed in body b, and the unit world direction n about which turning a by dphi (and b by
+    dphi_b) opens it by n . (dphi - dphi_b) (any unit vector where the axes are parallel)."""
+    a = rotate(qa, _vector(f, AXIS_A))
+    b = rotate(qb, _vector(f, AXIS_B))
+    c = _cross(b, a)
+    sine = math.sqrt(_dot(c, c))
+    angle = math.atan2(sine, _dot(a, b))
+    if sine == 0.0:
+        return rotate(qb, _vector(f, NORMAL_B)), angle
+    return (c[0] / sine, c[1] / sine, c[2] / sine), angle
+
+
+@njit(allocates=False)
+def _twist(f, qa, qb, axis):
+    """(t, twist): a spherical joint's twist, body a's turn about b's axis ``axis`` (world)
+    since creation in the swing-twist split of the relative rotation E = q_a conj(q_b q_0),
+    2 atan2(E_v . axis, E_w) in (-pi, pi]; and its gradient t, d twist = t . (dphi_a -
+    dphi_b) for world turns dphi of the bodies (turning both alike leaves it)."""
+    q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
+          f[RELATIVE_ORIENTATION + 3])  # fmt: skip
+    e = mul(qa, conjugate(mul(qb, q0)))
+    v = (e[0], e[1], e[2])
+    s, c = _dot(v, axis), e[3]
+    # E' = (dphi / 2, 1) E: ds = dphi . (c axis + v x axis) / 2 and dc = -dphi . v / 2
+    across = _cross(v, axis)
+    norm = s * s + c * c
+    if norm == 0.0:  # a half turn about an axis across b's: the twist is undefined
+        return (0.0, 0.0, 0.0), 0.0
+    t = (
+        (c * (c * axis[0] + across[0]) + s * v[0]) / norm,
+        (c * (c * axis[1] + across[1]) + s * v[1]) / norm,
+        (c * (c * axis[2] + across[2]) + s * v[2]) / norm,
+    )
+    twist = 2.0 * math.atan2(s, c)
+    if twist > math.pi:
+        twist -= 2.0 * math.pi
+    elif twist <= -math.pi:
+        twist += 2.0 * math.pi
+    return t, twist
 
 
 @njit(allocates=False)

@@ -13,8 +13,9 @@ bodies' own frames at creation, so the joint is zero where it was made:
 * the anchors' distance at creation (a rod's length);
 * the joint's length scale, the larger bounding radius of its bodies, which sets the
   tolerance its gap is solved to;
-* the limits of a hinge's angle (rad), a slider's travel (m) or a distance joint's length
-  (m), -inf and inf where none;
+* the limits of a hinge's angle (rad), a slider's travel (m), a distance joint's length
+  (m) or a spherical joint's twist (rad), -inf and inf where none, and a spherical joint's
+  cone (rad, inf where none);
 * its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
   or force it may use, a set torque (N m) or force (N), a position target with stiffness
   (N m/rad or N/m) and damping (N m s/rad or N s/m), or a servo (a position target held
@@ -73,7 +74,8 @@ SCALE = 23
 LOWER, UPPER = 24, 25
 MOTOR, MOTOR_TARGET, MOTOR_MAX, MOTOR_STIFFNESS, MOTOR_DAMPING, MOTOR_SPEED = range(26, 32)
 SPRING_STIFFNESS, SPRING_REST, DAMPING, FRICTION = range(32, 36)
-JOINT_FLOATS = 36
+CONE = 36
+JOINT_FLOATS = 37
 # Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque, a
 # position target with stiffness and damping, a servo (the position held as a constraint).
 NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
@@ -82,7 +84,7 @@ NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
 _AXIS_KINDS = ("revolute", "prismatic")
 # Kinds whose position (a hinge's angle, a slider's travel, a distance joint's length)
 # limits bound.
-_LIMITED_KINDS = ("revolute", "prismatic", "distance")
+_LIMITED_KINDS = ("revolute", "prismatic", "distance", "spherical")
 # Columns of ``JointSet.ints``.
 KIND, BODY_A, BODY_B = 0, 1, 2
 # An anchor may lie at most this many times a body's bounding radius from that body's centre
@@ -105,15 +107,13 @@ def _grouped(group, count, items) -> tuple[np.ndarray, np.ndarray]:
     return start.astype(np.int64), items[order].astype(np.int64)
 
 
-def _limits(kind: str, limits) -> tuple[float, float]:
-    """(lower, upper) of a joint's position from ``limits`` (None: unlimited)."""
+def _limits(kind: str, limits) -> tuple[float, float, float]:
+    """(lower, upper, cone) of a joint from ``limits`` (None: unlimited): the bounds of its
+    position, and a spherical joint's cone (rad; inf: none)."""
     if limits is None:
-        return -np.inf, np.inf
+        return -np.inf, np.inf, np.inf
     if kind == "spherical":
-        raise NotImplementedError(
-            "cone limits on spherical joints are not built yet; limits bound "
-            f"{_LIMITED_KINDS} joints"
-        )
+        return _cone_and_twist(limits)
     if kind not in _LIMITED_KINDS:
         raise ValueError(
             f"a {kind!r} joint has no free motion to limit; limits bound {_LIMITED_KINDS} joints"
@@ -136,7 +136,31 @@ def _limits(kind: str, limits) -> tuple[float, float]:
             f"a distance joint's limits bound its length: 0 <= lower <= upper, upper > 0 (inf "
             f"for none), got ({lower}, {upper})"
         )
-    return lower, upper
+    return lower, upper, np.inf
+
+
+def _cone_and_twist(limits) -> tuple[float, float, float]:
+    """(twist_lo, twist_hi, cone) of a spherical joint's ``limits`` = (cone, twist_lo,
+    twist_hi): the largest angle (rad) between the axis fixed in body a and the axis fixed in
+    body b (inf: no cone), and the range of a's twist about b's axis (as a hinge's angle)."""
+    try:
+        cone, lower, upper = (float(v) for v in limits)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"a spherical joint's limits are (cone, twist_lo, twist_hi) numbers, got {limits!r}"
+        ) from exc
+    if not (0.0 < cone <= np.pi or cone == np.inf):
+        raise ValueError(
+            f"a spherical joint's cone is an angle in (0, pi] (inf for none), got {cone}"
+        )
+    if np.isnan(lower) or np.isnan(upper) or lower > upper:
+        raise ValueError(f"twist limits out of order or not numbers: ({lower}, {upper})")
+    if -np.inf < lower < -np.pi or np.pi < upper < np.inf:
+        raise ValueError(
+            f"a spherical joint's twist limits lie in [-pi, pi] (-inf or inf for none), got "
+            f"({lower}, {upper})"
+        )
+    return lower, upper, cone
 
 
 def _motor(kind: str, motor) -> tuple[float, ...]:
@@ -326,7 +350,7 @@ class JointSet:
         row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(to_b, q_a)
         row[LENGTH] = length
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
-        row[LOWER], row[UPPER] = _limits(kind, options.get("limits"))
+        row[LOWER], row[UPPER], row[CONE] = _limits(kind, options.get("limits"))
         row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
         row[SPRING_STIFFNESS : FRICTION + 1] = _forces(kind, options, length)
         if name is not None and (not isinstance(name, str) or not name or "\0" in name):

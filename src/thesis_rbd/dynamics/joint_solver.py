@@ -114,14 +114,9 @@ def step_jointed_bodies(
         bodies = island_bodies[body_start[island] : body_start[island + 1]]
         if frozen[bodies[0]]:
             continue  # asleep: islands sleep whole
-        parts = (
-            substeps
-            if substeps > 0
-            else auto_substeps(dt, joints, ints, floats, inverse_mass, impulse)
-        )
-        h = dt / parts
-        for j in joints:
-            impulse[j, :] = 0.0
+        parts = substeps
+        if substeps == 0:
+            parts = auto_substeps(dt, joints, ints, floats, inverse_mass, impulse)
         for i in bodies:
             if save_start:
                 for k in range(3):
@@ -133,25 +128,23 @@ def step_jointed_bodies(
         scratch = projection_scratch(
             joints, bodies, ints, floats, neighbour_start[first : last + 1], neighbour, tree
         )
-        for _ in range(parts):
-            for i in bodies:
-                _kick(
-                    i, h, solved, substep_position, substep_orientation, position, orientation,
-                    linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
-                    external_force, drag, pf_start, pf_arm, pf_force,
-                )  # fmt: skip
-            drive_joints(
-                h, joints, ints, floats, frozen, position, orientation, linear_momentum,
-                angular_momentum, inverse_mass, inverse_inertia_body, impulse,
+        saved = _island_state(bodies, position, orientation, linear_momentum, angular_momentum)
+        while True:
+            for j in joints:
+                impulse[j, :] = 0.0
+            held = _substeps(
+                parts, dt / parts, joints, bodies, tree, ints, floats, frozen, solved,
+                substep_position, substep_orientation, position, orientation, linear_momentum,
+                angular_momentum, inverse_mass, inverse_inertia_body, external_force, drag,
+                pf_start, pf_arm, pf_force, impulse, scratch,
             )  # fmt: skip
-            for i in bodies:
-                _drift(i, h, position, orientation, linear_momentum, angular_momentum,
-                       inverse_mass, inverse_inertia_body)  # fmt: skip
-            project_island(
-                h, joints, bodies, tree, ints, floats, frozen, substep_position,
-                substep_orientation, position, orientation, linear_momentum, angular_momentum,
-                inverse_mass, inverse_inertia_body, impulse, scratch,
-            )  # fmt: skip
+            if held or substeps > 0 or parts >= MOST_SUBSTEPS:
+                break
+            # the projection could not follow the step's motion in so few substeps (the
+            # whipping end of a falling chain turns faster within the step than it did at
+            # its start): the island's step again, in twice as many
+            _restore_island(bodies, saved, position, orientation, linear_momentum, angular_momentum)
+            parts = min(2 * parts, MOST_SUBSTEPS)
         for i in bodies:
             if not math.isfinite(
                 position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
@@ -159,6 +152,67 @@ def step_jointed_bodies(
             ):  # fmt: skip
                 return i
     return -1
+
+
+@njit
+def _substeps(
+    parts, h, joints, bodies, tree, ints, floats, frozen, solved, substep_position,
+    substep_orientation, position, orientation, linear_momentum, angular_momentum,
+    inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+    impulse, scratch,
+):  # fmt: skip
+    """The island's step in ``parts`` substeps of length h (module docstring). Returns
+    whether every projection held its rows and every body stayed finite."""
+    held = True
+    for _ in range(parts):
+        for i in bodies:
+            _kick(
+                i, h, solved, substep_position, substep_orientation, position, orientation,
+                linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
+                external_force, drag, pf_start, pf_arm, pf_force,
+            )  # fmt: skip
+        drive_joints(
+            h, joints, ints, floats, frozen, position, orientation, linear_momentum,
+            angular_momentum, inverse_mass, inverse_inertia_body, impulse,
+        )  # fmt: skip
+        for i in bodies:
+            _drift(i, h, position, orientation, linear_momentum, angular_momentum,
+                   inverse_mass, inverse_inertia_body)  # fmt: skip
+        held &= project_island(
+            h, joints, bodies, tree, ints, floats, frozen, substep_position,
+            substep_orientation, position, orientation, linear_momentum, angular_momentum,
+            inverse_mass, inverse_inertia_body, impulse, scratch,
+        )  # fmt: skip
+    for i in bodies:
+        held &= math.isfinite(
+            position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
+            + linear_momentum[i, 0] + angular_momentum[i, 0]
+        )  # fmt: skip
+    return held
+
+
+@njit
+def _island_state(bodies, position, orientation, linear_momentum, angular_momentum):
+    """The island's bodies' (x, q, P, L), (b, 13): what a step taken again starts from."""
+    saved = np.empty((len(bodies), 13))
+    for local in range(len(bodies)):
+        i = bodies[local]
+        saved[local, 0:3] = position[i]
+        saved[local, 3:7] = orientation[i]
+        saved[local, 7:10] = linear_momentum[i]
+        saved[local, 10:13] = angular_momentum[i]
+    return saved
+
+
+@njit
+def _restore_island(bodies, saved, position, orientation, linear_momentum, angular_momentum):
+    """``_island_state``'s inverse."""
+    for local in range(len(bodies)):
+        i = bodies[local]
+        position[i] = saved[local, 0:3]
+        orientation[i] = saved[local, 3:7]
+        linear_momentum[i] = saved[local, 7:10]
+        angular_momentum[i] = saved[local, 10:13]
 
 
 @njit
@@ -202,7 +256,10 @@ def auto_substeps(dt, joints, ints, floats, inverse_mass, impulse):
     """Substeps an island needs: a link of mass m and length l pulled with tension T swings
     sideways at w ~ sqrt(3 T / (m l)), and each substep must keep h w within
     ``_STIFF_STEP``. T is the joint's force over the last step; l is twice the anchor's
-    distance from the body's centre (at least the body's scale)."""
+    distance from the body's centre (at least the body's scale). Motion that outruns this
+    within the step (the whipping end of a falling chain) is caught by the projection
+    failing to converge, and the island's step is taken again in more substeps
+    (``step_jointed_bodies``)."""
     fastest = 0.0
     for j in joints:
         f = impulse[j]
@@ -279,6 +336,12 @@ def project_island(
         mass), N s and N m s, world frame: this projection's are added.
     scratch : tuple
         ``projection_scratch`` of the island.
+
+    Returns
+    -------
+    bool
+        Whether the rows hold to the tolerance (False: ``JOINT_ITERATIONS`` did not bring
+        them there, or the state is not finite).
     """
     h = dt
     rows, current, row_joint, row_body, moved, layout, K, step, spin, kept, factored_rows = scratch
@@ -289,6 +352,7 @@ def project_island(
                   inverse_inertia_body, moved)  # fmt: skip
     factored = False
     factored_rows[:] = False  # the rows written when the factor was made
+    held = False
     for _ in range(JOINT_ITERATIONS):
         # the errors where the bodies are now
         _island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
@@ -300,6 +364,7 @@ def project_island(
             worst = max(worst, abs(current[k, 9]) / scale)
             step[k] = -current[k, 9]
         if worst <= _TOLERANCE:
+            held = True
             break
         # Newton on the impulses: how the errors change along the start directions, from
         # the first iterate's rows (later iterates move by round-off of the step's
@@ -347,6 +412,7 @@ def project_island(
                 impulse[j, 3 + c] += rows[k, 3 + c] * lam / h
         for local in range(len(bodies)):
             _turn(orientation, bodies[local], spin[local])
+    return held
 
 
 @njit

@@ -38,10 +38,17 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_solver import exact_contact_impulses
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
-from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, axis_row, body_pose, joint_rows
+from thesis_rbd.dynamics.joint_rows import (
+    ROWS_OF_KIND,
+    axis_row,
+    body_pose,
+    cone_angle,
+    joint_rows,
+)
 from thesis_rbd.dynamics.joint_set import (
     BODY_A,
     BODY_B,
+    CONE,
     JOINT_KINDS,
     KIND,
     LOWER,
@@ -64,6 +71,7 @@ _FALLBACK_SWEEPS = 200
 # ``island_solver.REBOUND_EXACT_CONTACTS`` (a row of 20 touching polyhedral balls).
 _REBOUND_EXACT_ROWS = 160
 REVOLUTE = JOINT_KINDS["revolute"]
+SPHERICAL = JOINT_KINDS["spherical"]
 
 
 @njit
@@ -191,31 +199,40 @@ def solve_jointed_island(
 @njit
 def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
     """The one-sided rows of the island's limits (a hinge's angle, a slider's travel, a
-    rope's length), three per limit as a contact's (its direction, then two zero rows).
+    rope's length, a spherical joint's cone and twist), three per limit as a contact's (its
+    direction, then two zero rows).
 
     A lower limit's row is the joint's axis row (``joint_rows.axis_row``), an upper limit's
-    its negative, so that a positive impulse pushes the joint back within its limits; the
-    bias lets it close the gap to its limit over the step and no more (a speculative limit:
-    it stops on the limit as a contact stops on a floor), and a limit passed already takes
-    no further approach (the joints stage puts it back on the limit). Returns the rows
-    (3 l, 6 k), their biases (l,) and their scales (l,): the joint's length for an angle
-    (m per rad: the contact tolerances are speeds), else 1.
+    (and a cone's) its negative, so that a positive impulse pushes the joint back within its
+    limits; the bias lets it close the gap to its limit over the step and no more (a
+    speculative limit: it stops on the limit as a contact stops on a floor), and a limit
+    passed already takes no further approach (the joints stage puts it back on the limit).
+    Returns the rows (3 l, 6 k), their biases (l,) and their scales (l,): the joint's length
+    for an angle (m per rad: the contact tolerances are speeds), else 1.
     """
     count = 0
     for j in joints:
         count += (floats[j, LOWER] > -np.inf) + (floats[j, UPPER] < np.inf)
+        count += floats[j, CONE] < np.inf
     J = np.zeros((3 * count, size))
     bias = np.empty(count)
     scale = np.ones(count)
     row = 0
     for j in joints:
         f = floats[j]
-        if not (f[LOWER] > -np.inf or f[UPPER] < np.inf):
-            continue
         kind = ints[j, KIND]
         a, b = ints[j, BODY_A], ints[j, BODY_B]
         xa, qa = body_pose(a, position, orientation)
         xb, qb = body_pose(b, position, orientation)
+        angular = kind == REVOLUTE or kind == SPHERICAL
+        if f[CONE] < np.inf:
+            n, angle = cone_angle(f, qa, qb)
+            bias[row] = max(f[CONE] - angle, 0.0) / dt
+            scale[row] = f[SCALE]
+            _write_limit(J, row, a, b, local, -1.0, (0.0, 0.0, 0.0), n, (-n[0], -n[1], -n[2]))
+            row += 1
+        if not (f[LOWER] > -np.inf or f[UPPER] < np.inf):
+            continue
         lin, ang_a, ang_b, where = axis_row(kind, f, xa, qa, xb, qb)
         for side in range(2):
             limit = f[LOWER] if side == 0 else f[UPPER]
@@ -223,18 +240,25 @@ def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
                 continue
             sign = 1.0 if side == 0 else -1.0
             bias[row] = max(sign * (where - limit), 0.0) / dt
-            if kind == REVOLUTE:
+            if angular:
                 scale[row] = f[SCALE]
-            for end in range(2):
-                body = a if end == 0 else b
-                if body < 0 or local[body] < 0:
-                    continue
-                column = 6 * local[body]
-                for i in range(3):
-                    J[3 * row, column + i] = sign * (lin[i] if end == 0 else -lin[i])
-                    J[3 * row, column + 3 + i] = sign * (ang_a[i] if end == 0 else ang_b[i])
+            _write_limit(J, row, a, b, local, sign, lin, ang_a, ang_b)
             row += 1
     return J, bias, scale
+
+
+@njit
+def _write_limit(J, row, a, b, local, sign, lin, ang_a, ang_b):
+    """Row 3 ``row`` of J: ``sign`` times a joint row (lin on a, -lin on b, its angular
+    parts) in the island's columns."""
+    for end in range(2):
+        body = a if end == 0 else b
+        if body < 0 or local[body] < 0:
+            continue
+        column = 6 * local[body]
+        for i in range(3):
+            J[3 * row, column + i] = sign * (lin[i] if end == 0 else -lin[i])
+            J[3 * row, column + 3 + i] = sign * (ang_a[i] if end == 0 else ang_b[i])
 
 
 @njit

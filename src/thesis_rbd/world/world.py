@@ -259,6 +259,7 @@ class World(WorldReadout, WorldJoints):
         collidable: bool = True,
         collision_group: int = 1,
         collision_mask: int = 0xFFFF,
+        kinematic: bool = False,
     ) -> int:
         """Add a body and return its index.
 
@@ -290,7 +291,14 @@ class World(WorldReadout, WorldJoints):
             Bit fields: two bodies collide only if each one's group shares a bit with the
             other's mask (Bullet's rule); by default every body is in group 1 and collides
             with groups 1-16.
+        kinematic : bool
+            A body moved by the user that contacts and joints push against: not built yet
+            (True raises NotImplementedError).
         """
+        if kinematic:
+            raise NotImplementedError(
+                "kinematic bodies are not built yet; a static body is the immovable kind"
+            )
         fields = body_fields(
             mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
             restitution, friction, static, collidable, collision_group, collision_mask,
