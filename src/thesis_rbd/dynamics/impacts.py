@@ -50,7 +50,7 @@ from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands, find_linked_islands
 from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B
-from thesis_rbd.dynamics.jointed_contacts import island_joints
+from thesis_rbd.dynamics.jointed_contacts import joined_islands
 from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 
@@ -226,18 +226,13 @@ def resolve_impacts(
         settings, sel, sub_start, sa, sb, depths, sub_normals, arm_a, arm_b, v, w,
         acceleration, slop, restitution, friction,
     )  # fmt: skip
-    joined = None
-    if joints is not None:
-        # the joints of each kept island, numbered as sub_start numbers them
-        sub_island = np.full(n, -1)
-        kept_index = np.cumsum(island_time > 0.0) - 1
-        for i in range(n):
-            if member[i]:
-                sub_island[i] = kept_index[body_island[i]]
-        joint_start, island_joint_list = island_joints(
-            joints[0], sub_island, sub_start.shape[0] - 1
-        )
-        joined = (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
+    # the joints of each kept island, numbered as sub_start numbers them
+    sub_island = np.full(n, -1)
+    kept_index = np.cumsum(island_time > 0.0) - 1
+    for i in range(n):
+        if member[i]:
+            sub_island[i] = kept_index[body_island[i]]
+    joined = joined_islands(joints, sub_island, sub_start.shape[0] - 1, position, orientation)
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,

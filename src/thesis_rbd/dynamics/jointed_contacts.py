@@ -58,7 +58,7 @@ from thesis_rbd.dynamics.joint_set import (
 from thesis_rbd.dynamics.joint_tree import left_solve, lu_in_place
 from thesis_rbd.dynamics.pgs import project_onto_polygon
 
-__all__ = ["island_joints", "solve_jointed_island"]
+__all__ = ["island_joints", "joined_islands", "solve_jointed_island"]
 
 # Most rows a joint has (a fixed joint's six, and a limit's).
 _MOST_ROWS = 7
@@ -107,6 +107,18 @@ def island_joints(ints, body_island, islands):
             joints[fill[isl]] = j
             fill[isl] += 1
     return joint_start, joints
+
+
+@njit
+def joined_islands(joints, body_island, islands, position, orientation):
+    """What ``island_solver.solve_islands`` takes of the joints (its ``joined``): the joints
+    of each island (``island_joints``), the ``JointSet`` arrays and the poses; None where
+    ``joints``, the ``JointSet``'s (ints, floats), is None (numba compiles one or the other,
+    never a value that may be either)."""
+    if joints is None:
+        return None
+    joint_start, island_joint_list = island_joints(joints[0], body_island, islands)
+    return (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
 
 
 @njit

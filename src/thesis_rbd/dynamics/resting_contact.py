@@ -55,7 +55,7 @@ from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.island_solver import correct_positions, island_tolerances, solve_islands
 from thesis_rbd.dynamics.islands import find_islands, find_linked_islands, order_from_the_top
 from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B
-from thesis_rbd.dynamics.jointed_contacts import island_joints
+from thesis_rbd.dynamics.jointed_contacts import joined_islands
 from thesis_rbd.dynamics.materials import combined_friction, combined_restitution
 from thesis_rbd.dynamics.pgs import build_rows
 from thesis_rbd.dynamics.warm_start import MATCH_FRACTION, find_warm_impulses
@@ -141,14 +141,11 @@ def solve_contacts(
     sorted_normals = normals[order]
     basis = contact_basis(sorted_normals)
     slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
-    joined = None
+    joined = joined_islands(joints, body_island, island_start.shape[0] - 1, position, orientation)
     carried = np.zeros(n, np.bool_)
     jointed = np.zeros(c, np.bool_)
-    if joints is not None:
-        joint_start, island_joint_list = island_joints(
-            joints[0], body_island, island_start.shape[0] - 1
-        )
-        joined = (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
+    if joined is not None:
+        joint_start = joined[0]
         for isl in range(island_start.shape[0] - 1):
             if joint_start[isl + 1] > joint_start[isl]:
                 jointed[island_start[isl] : island_start[isl + 1]] = True
