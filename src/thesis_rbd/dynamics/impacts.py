@@ -236,7 +236,7 @@ def resolve_impacts(
     lam = np.zeros((kept, 3))
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        tolerance, movable_mass, inverse_inertia, v, w, lam, stats, joined,
+        tolerance, movable_mass, inverse_inertia, v, w, lam, stats, joints, joined,
     )  # fmt: skip
 
     # 2. the rest of the step: forces over it, then resting contact
@@ -260,7 +260,7 @@ def resolve_impacts(
     )
     solve_islands(
         settings, polygon, sub_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        relaxed, movable_mass, inverse_inertia, v, w, rest, stats, joined,
+        relaxed, movable_mass, inverse_inertia, v, w, rest, stats, joints, joined,
     )  # fmt: skip
 
     # 3. the bodies carried to the end of the step

@@ -83,7 +83,7 @@ def island_tolerances(island_start, body_a, body_b, arm_a, arm_b, v, w, toleranc
 @njit(separate=True)
 def solve_islands(
     settings, polygon, island_start, body_a, body_b, arm_a, arm_b, basis, rows, bias, bounce,
-    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats, joined,
+    friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats, joints, joined,
 ):  # fmt: skip
     """Solve each island's contacts, then add Poisson's restitution, in place.
 
@@ -119,11 +119,11 @@ def solve_islands(
         Warm start in, answer out, in each contact's (n, t1, t2) frame.
     stats : (6,) int64
         ``contact_stats.STATS`` counters, updated.
-    joined : tuple or None
-        ``(joint_start, joints, ints, floats, position, orientation)``: the joints of each
-        island (``jointed_contacts.island_joints``), the ``JointSet`` arrays and the poses;
-        an island with joints is solved with them held (``jointed_contacts``). None: no
-        joints.
+    joints : tuple or None
+        The ``JointSet``'s (ints, floats); None: no joints.
+    joined : tuple
+        ``jointed_contacts.joined_islands``: the joints of each island and the poses. An
+        island with joints is solved with them held (``jointed_contacts``).
     """
     angular_a, angular_b, response_a, response_b, normal_step, tangent_step, coupling = rows
     solver = int(settings[cs.SOLVER])
@@ -140,14 +140,14 @@ def solve_islands(
             rebounds |= bounce[k] > 0.0
         if not taking_part:
             continue
-        if joined is not None:
-            joint_start, joints, ints, floats, position, orientation = joined
+        if joints is not None:
+            joint_start, joint_list, position, orientation = joined
             if joint_start[isl + 1] > joint_start[isl]:
                 solve_jointed_island(
                     s, e, settings, polygon, body_a, body_b, arm_a, arm_b, basis, bias, bounce,
                     friction, tolerance, inverse_mass, inverse_inertia, v, w, impulse, stats,
-                    joints[joint_start[isl] : joint_start[isl + 1]], ints, floats, position,
-                    orientation,
+                    joint_list[joint_start[isl] : joint_start[isl + 1]], joints[0], joints[1],
+                    position, orientation,
                 )  # fmt: skip
                 continue
         # an impact's rebound gives back e of the compression impulses, and keeps the energy

@@ -111,14 +111,15 @@ def island_joints(ints, body_island, islands):
 
 @njit
 def joined_islands(joints, body_island, islands, position, orientation):
-    """What ``island_solver.solve_islands`` takes of the joints (its ``joined``): the joints
-    of each island (``island_joints``), the ``JointSet`` arrays and the poses; None where
-    ``joints``, the ``JointSet``'s (ints, floats), is None (numba compiles one or the other,
-    never a value that may be either)."""
-    if joints is None:
-        return None
-    joint_start, island_joint_list = island_joints(joints[0], body_island, islands)
-    return (joint_start, island_joint_list, joints[0], joints[1], position, orientation)
+    """What ``island_solver.solve_islands`` takes of the joints beside the ``JointSet``'s
+    (ints, floats) ``joints`` (None: no joints): the joints of each island
+    (``island_joints``; none anywhere without joints) and the poses. Always the same tuple
+    type, so that no kernel takes a value that may be None or not."""
+    joint_start = np.zeros(islands + 1, np.int64)
+    island_joint_list = np.empty(0, np.int64)
+    if joints is not None:
+        joint_start, island_joint_list = island_joints(joints[0], body_island, islands)
+    return joint_start, island_joint_list, position, orientation
 
 
 @njit

@@ -144,7 +144,7 @@ def solve_contacts(
     joined = joined_islands(joints, body_island, island_start.shape[0] - 1, position, orientation)
     carried = np.zeros(n, np.bool_)
     jointed = np.zeros(c, np.bool_)
-    if joined is not None:
+    if joints is not None:
         joint_start = joined[0]
         for isl in range(island_start.shape[0] - 1):
             if joint_start[isl + 1] > joint_start[isl]:
@@ -173,7 +173,7 @@ def solve_contacts(
         solve_islands(
             settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, impact_bias,
             impact_bounce, mu, tolerance, movable_mass, inverse_inertia, after_v, after_w,
-            impact, stats, joined,
+            impact, stats, joints, joined,
         )  # fmt: skip
         v += after_v - v0
         w += after_w - w0
@@ -189,7 +189,7 @@ def solve_contacts(
     )
     solve_islands(
         settings, polygon, island_start, sa, sb, arm_a, arm_b, basis, rows, bias, bounce, mu,
-        relaxed, movable_mass, inverse_inertia, v, w, lam, stats, joined,
+        relaxed, movable_mass, inverse_inertia, v, w, lam, stats, joints, joined,
     )  # fmt: skip
     if had_impact:
         lam += impact
