@@ -48,6 +48,8 @@ from thesis_rbd.dynamics.lcp import lemke
 from thesis_rbd.dynamics.pgs import build_rows, friction_polygon, sweep_island
 
 __all__ = [
+    "FALLBACK_SWEEPS",
+    "REBOUND_EXACT_CONTACTS",
     "contact_basis",
     "delassus_matrix",
     "exact_contact_impulses",
@@ -286,6 +288,13 @@ def _lcp_residual(M, q, z, velocity_floor):
     return worst
 
 
+# PGS sweeps an island gets where Lemke's answer misses the LCP conditions (``solve_exact``).
+FALLBACK_SWEEPS = 200
+# The most contacts of a rebounding island that "auto" solves exactly when PGS has not
+# converged (a row of 20 polyhedral balls touching face to face has 120): a rebound gives
+# back e of the compression impulses and keeps the energy only if they are the answer.
+REBOUND_EXACT_CONTACTS = 160
+
 # Relative pivot tolerances for Lemke, tried in turn until one answer passes the check.
 _PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
@@ -340,7 +349,14 @@ def exact_contact_impulses(sides, A, u, bias, friction, velocity_scale):
 
 @njit(separate=True)
 def solve_exact(
-    sides, contacts, bias, friction, bodies, impulse, velocity_scale, pgs_fallback_iterations=200
+    sides,
+    contacts,
+    bias,
+    friction,
+    bodies,
+    impulse,
+    velocity_scale,
+    pgs_fallback_iterations=FALLBACK_SWEEPS,
 ):
     """Solve the contact problem exactly (Lemke on the Stewart-Trinkle LCP), in place.
 

@@ -28,18 +28,14 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
 from thesis_rbd.dynamics.contact_kinematics import relative_velocity
-from thesis_rbd.dynamics.contact_solver import solve_exact
+from thesis_rbd.dynamics.contact_solver import REBOUND_EXACT_CONTACTS, solve_exact
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
 from thesis_rbd.dynamics.jointed_contacts import solve_jointed_island
 from thesis_rbd.dynamics.pgs import sweep_island
 from thesis_rbd.dynamics.subspace import SUBSPACE_CONTACTS, sweep_with_subspace_steps
 from thesis_rbd.spatial.quaternion import mul, normalize
 
-__all__ = ["REBOUND_EXACT_CONTACTS", "correct_positions", "island_tolerances", "solve_islands"]
-
-# the most contacts of a rebounding island that "auto" solves exactly when PGS has not
-# converged (a row of 20 polyhedral balls touching face to face has 120)
-REBOUND_EXACT_CONTACTS = 160
+__all__ = ["correct_positions", "island_tolerances", "solve_islands"]
 
 
 @njit

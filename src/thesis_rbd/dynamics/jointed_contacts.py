@@ -36,7 +36,11 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics import contact_settings as cs
-from thesis_rbd.dynamics.contact_solver import exact_contact_impulses
+from thesis_rbd.dynamics.contact_solver import (
+    FALLBACK_SWEEPS,
+    REBOUND_EXACT_CONTACTS,
+    exact_contact_impulses,
+)
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
 from thesis_rbd.dynamics.joint_rows import (
     ROWS_OF_KIND,
@@ -65,11 +69,6 @@ _MOST_ROWS = 7
 # A contact row whose effective inverse mass with the joints held is below this fraction of
 # its value without them cannot move (a body welded to the world): it takes no impulse.
 _IMMOVABLE = 1e-9
-# The Lemke fallback's PGS sweeps, as ``contact_solver.solve_exact``'s.
-_FALLBACK_SWEEPS = 200
-# The most rows a rebounding island is solved exactly with where PGS has not converged, as
-# ``island_solver.REBOUND_EXACT_CONTACTS`` (a row of 20 touching polyhedral balls).
-_REBOUND_EXACT_ROWS = 160
 REVOLUTE = JOINT_KINDS["revolute"]
 SPHERICAL = JOINT_KINDS["spherical"]
 
@@ -181,9 +180,7 @@ def solve_jointed_island(
     rebounds = False
     for k in range(s, e):
         rebounds |= bounce[k] > 0.0
-    exact_limit = int(settings[cs.EXACT_LIMIT])
-    if rebounds:
-        exact_limit = max(exact_limit, _REBOUND_EXACT_ROWS)
+    exact_limit = REBOUND_EXACT_CONTACTS if rebounds else int(settings[cs.EXACT_LIMIT])
     _solve(
         settings, polygon, A, free_diagonal, rows @ velocity, row_bias, row_friction,
         row_tolerance, exact_limit, answer, stats,
@@ -435,18 +432,18 @@ def _solve(
         velocity_scale,
     )  # fmt: skip
     stats[EXACT_ISLANDS] += 1
+    # as contact_solver.solve_exact: Lemke's answer where it holds; PGS from it where it is
+    # nearly right, from where the sweeps stopped where it is off
+    if residual <= 1e-2:
+        answer[:] = 0.0
+        for idx in range(taking_part.shape[0]):
+            for d in range(3):
+                answer[taking_part[idx], d] = best[3 * idx + d]
     if residual > 1e-6:
         stats[UNCONVERGED] += 1
-        if residual > 1e-2:
-            return  # Lemke's answer is off: PGS goes on from where it stopped
-    answer[:] = 0.0
-    for idx in range(taking_part.shape[0]):
-        for d in range(3):
-            answer[taking_part[idx], d] = best[3 * idx + d]
-    if residual > 1e-6:
         _sweeps(
             A, free_diagonal, u.copy(), bias, friction, 1e-3 * tolerance, polygon,
-            _FALLBACK_SWEEPS, answer,
+            FALLBACK_SWEEPS, answer,
         )  # fmt: skip
 
 
