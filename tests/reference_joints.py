@@ -66,3 +66,10 @@ def off_line(anchor, axis, a0, a1, b0, b1):
     offset = anchor_offset(anchor, a0, a1, b0, b1)
     u = turned(axis, b0, b1)
     return float(np.linalg.norm(offset - (offset @ u) * u))
+
+
+def square_pair_error(axis_b, axis_a, a0, a1, b0, b1):
+    """Angle (rad) from square between a direction carried by b and one carried by a (the
+    pair a universal joint, or a generic joint with one turn locked, holds square)."""
+    cosine = float(turned(axis_b, b0, b1) @ turned(axis_a, a0, a1))
+    return abs(float(np.arcsin(np.clip(cosine, -1.0, 1.0))))

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 import thesis_rbd as rbd
 from thesis_rbd.dynamics.contact_settings import ContactSettings
 from thesis_rbd.dynamics.contact_solver import contact_basis
-from thesis_rbd.dynamics.joint_rows import ROWS_OF_KIND, body_pose, joint_rows
+from thesis_rbd.dynamics.joint_rows import body_pose, equality_row_count, joint_rows
 from thesis_rbd.dynamics.joint_set import JOINT_KINDS, JointSet
 from thesis_rbd.dynamics.jointed_contacts import solve_jointed_island
 from thesis_rbd.dynamics.pgs import friction_polygon
@@ -66,7 +66,10 @@ def test_jointed_island_matches_the_whole_velocity_problem(kind, contacts, seed)
     joints = JointSet()
     anchor = rng.normal(0, 0.2, 3)
     anchor_b = anchor + rng.normal(0, 0.3, 3) if kind == "distance" else None
-    joints.add(kind, 0, 1, anchor, rng.normal(size=3), anchor_b, False, None, bodies, {})
+    axis, options = rng.normal(size=3), {}
+    if kind == "generic":  # one travel and two turns locked: line and hinge rows
+        options["axes"] = ("free", "locked", "locked", "locked", "free", "locked")
+    joints.add(kind, 0, 1, anchor, axis, anchor_b, False, None, bodies, options)
     n = bodies.count
     inverse_mass = np.array([1 / bodies.mass[0], 1 / bodies.mass[1], 0.0])
     R = Rotation.from_quat(bodies.orientation).as_matrix()
@@ -101,7 +104,7 @@ def test_jointed_island_matches_the_whole_velocity_problem(kind, contacts, seed)
     xa, qa = body_pose(0, bodies.position, bodies.orientation)
     xb, qb = body_pose(1, bodies.position, bodies.orientation)
     joint_rows(JOINT_KINDS[kind], joints.floats[0], xa, qa, xb, qb, rows, 0, True)
-    equality = rows[: ROWS_OF_KIND[JOINT_KINDS[kind]]]
+    equality = rows[: equality_row_count(JOINT_KINDS[kind], joints.floats[0])]
     J = np.zeros((len(equality), 12))
     J[:, 0:3], J[:, 3:6] = equality[:, 0:3], equality[:, 3:6]
     J[:, 6:9], J[:, 9:12] = -equality[:, 0:3], equality[:, 6:9]

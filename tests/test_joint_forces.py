@@ -337,17 +337,6 @@ def test_bad_joint_forces_are_refused_naming_the_field(message):
     assert len(world.joints["kind"]) == 0
 
 
-@pytest.mark.parametrize(
-    ("kind", "options", "message"),
-    [("universal", {}, "'universal' is not built yet"), ("generic", {}, "'generic' is not")],
-)  # fmt: skip
-def test_what_is_not_built_yet_says_so(kind, options, message):
-    world = rbd.World()
-    world.add_body(rbd.shapes.box())
-    with pytest.raises(NotImplementedError, match=message):
-        world.add_joint(kind, 0, None, anchor=(0, 0, 0), **options)
-
-
 # ----------------------------------------------------------------------------- scene files
 _SCENE = """
 [world]

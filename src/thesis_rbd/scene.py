@@ -163,12 +163,17 @@ class JointSpec:
     body_a : int
     body_b : int or None
         None: the world.
-    anchor, axis : (3,) float ndarray
+    anchor : (3,) float ndarray
+    axis : (3,) or (2, 3) float ndarray
+        One direction, or a universal or generic joint's two square ones.
     anchor_b : (3,) float ndarray or None
     collide : bool
     name : str or None
-    limits : (lower, upper) or (cone, twist_lo, twist_hi) of float, or None
-        -inf / inf for an open side; None: no limits.
+    limits : tuple or None
+        (lower, upper), (cone, twist_lo, twist_hi) or a universal joint's ((lower, upper),
+        (lower, upper)) of float, -inf / inf for an open side; None: no limits.
+    axes : tuple or None
+        A generic joint's six axes, each "free", "locked" or (lower, upper).
     motor : Mapping or None
         The motor table as written (numbers by key); None: no motor.
     spring : Mapping or None
@@ -185,7 +190,8 @@ class JointSpec:
     anchor_b: np.ndarray | None
     collide: bool
     name: str | None
-    limits: tuple[float, ...] | None = None
+    limits: tuple | None = None
+    axes: tuple | None = None
     motor: MappingProxyType | None = None
     spring: MappingProxyType | None = None
     damping: float = 0.0
@@ -263,7 +269,7 @@ class Scene:
                 world.add_joint(
                     joint.kind, joint.body_a, joint.body_b, anchor=joint.anchor,
                     axis=joint.axis, anchor_b=joint.anchor_b, collide=joint.collide,
-                    name=joint.name, limits=joint.limits,
+                    name=joint.name, limits=joint.limits, axes=joint.axes,
                     motor=None if joint.motor is None else dict(joint.motor),
                     spring=None if joint.spring is None else dict(joint.spring),
                     damping=joint.damping, friction=joint.friction,
@@ -529,8 +535,8 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
 
 
 _JOINT_KEYS = (
-    "kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name", "limits", "motor",
-    "spring", "damping", "friction",
+    "kind", "body_a", "body_b", "anchor", "axis", "anchor_b", "collide", "name", "limits", "axes",
+    "motor", "spring", "damping", "friction",
 )  # fmt: skip
 # Every key some motor takes; World.add_joint judges which go together.
 _MOTOR_KEYS = (
@@ -562,11 +568,12 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
         body_a=body("body_a"),
         body_b=body("body_b") if "body_b" in table else None,
         anchor=np.asarray(_vector3(table["anchor"], where.field("anchor"))),
-        axis=np.asarray(_optional(table, "axis", (0, 0, 1), _vector3, where)),
+        axis=np.asarray(_optional(table, "axis", (0, 0, 1), _joint_axis, where)),
         anchor_b=None if anchor_b is None else np.asarray(anchor_b),
         collide=_optional(table, "collide", False, _as_bool, where),
         name=_optional(table, "name", None, _as_string, where),
         limits=_optional(table, "limits", None, _limits, where),
+        axes=_optional(table, "axes", None, _axes, where),
         motor=None if motor is None else MappingProxyType(motor),
         spring=None if spring is None else MappingProxyType(spring),
         damping=_optional(table, "damping", 0.0, _non_negative_number, where),
@@ -574,10 +581,41 @@ def _parse_joint(table, where: _Context, body_index: dict) -> JointSpec:
     )
 
 
-def _limits(value, where: _Context) -> tuple[float, ...]:
-    """A joint's limits: [lower, upper], or a spherical joint's [cone, twist_lo, twist_hi];
-    numbers, inf / -inf for an open side (TOML's inf). World.add_joint judges which kind
-    takes which."""
+def _joint_axis(value, where: _Context):
+    """A joint's axis: [x, y, z], or a universal or generic joint's two square directions
+    [[x, y, z], [x, y, z]] (World.add_joint judges which kind takes which)."""
+    if isinstance(value, list) and value and all(isinstance(v, list) for v in value):
+        if len(value) != 2:
+            where.fail(f"must be [x, y, z] or two directions [[x, y, z], [x, y, z]], got {value!r}")
+        return [_vector3(v, where) for v in value]
+    return _vector3(value, where)
+
+
+def _axes(value, where: _Context) -> tuple:
+    """A generic joint's six axes: each "free", "locked" or [lower, upper]."""
+    if not isinstance(value, list) or len(value) != 6:
+        where.fail(
+            f'must be six entries, each "free", "locked" or [lower, upper], got {_describe(value)}'
+        )
+    axes = []
+    for index, item in enumerate(value):
+        if item in ("free", "locked"):
+            axes.append(item)
+        elif isinstance(item, list):
+            axes.append(_limits(item, where.field(str(index))))
+        else:
+            where.field(str(index)).fail(
+                f'must be "free", "locked" or [lower, upper], got {item!r}'
+            )
+    return tuple(axes)
+
+
+def _limits(value, where: _Context) -> tuple:
+    """A joint's limits: [lower, upper], a spherical joint's [cone, twist_lo, twist_hi] or a
+    universal joint's [[lower, upper], [lower, upper]]; numbers, inf / -inf for an open side
+    (TOML's inf). World.add_joint judges which kind takes which."""
+    if isinstance(value, list) and len(value) == 2 and all(isinstance(v, list) for v in value):
+        return tuple(_limits(v, where) for v in value)
     if not isinstance(value, list) or len(value) not in (2, 3):
         where.fail(f"must be [lower, upper] or [cone, twist_lo, twist_hi], got {_describe(value)}")
     bounds = []

@@ -21,6 +21,12 @@ conserve the total linear and angular momentum. Rows of each kind (``joint_set``
   (b's perpendiculars turn with b): ang_b = -((p_a - x_b) x n_b);
 * at the rod's length (distance): C = |p_a - p_b| - length along d = (p_a - p_b) / |.|;
   lin = d, ang_a = r_a x d, ang_b = -(r_b x d);
+* a universal or generic joint's locked axes (``joint_set``): travel along b's axis d as
+  a line row; all three turns as the orientation rows, two as a hinge's rows about the
+  free turn's axis, one as C = u . v for the Cardan pair it holds square (u fixed in b, v
+  in a: b's x and a's y for z, b's x and a's z for y, b's y and a's z for x), ang_a =
+  v x u = -ang_b; a limited axis as a limit row on its travel or Cardan angle, whose rate
+  is omega_rel . u_k for the dual basis u_k of (x_b, y', z_a) (y' the middle axis);
 * within limits (a limited hinge, slider or distance joint, its last row): C = position -
   the limit it is beyond, along the axis (a hinge: ang_a = axis = -ang_b; a slider: as a line
   row along the axis; a distance joint: as a rod's row). A limit acts only where it is
@@ -41,6 +47,8 @@ from thesis_rbd.dynamics.joint_set import (
     ARM_B,
     AXIS_A,
     AXIS_B,
+    AXIS_LOWER,
+    AXIS_UPPER,
     BINORMAL_B,
     BODY_A,
     CONE,
@@ -56,8 +64,13 @@ from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 
 __all__ = [
     "axis_row",
+    "axis_state",
     "body_pose",
     "cone_angle",
+    "equality_row_count",
+    "frame_axis_row",
+    "has_axes",
+    "joint_frames",
     "joint_readout",
     "joint_row_count",
     "joint_rows",
@@ -73,14 +86,55 @@ REVOLUTE = JOINT_KINDS["revolute"]
 FIXED = JOINT_KINDS["fixed"]
 PRISMATIC = JOINT_KINDS["prismatic"]
 DISTANCE = JOINT_KINDS["distance"]
-# Equality rows of each kind, by code (a limited joint has one more).
+UNIVERSAL = JOINT_KINDS["universal"]
+GENERIC = JOINT_KINDS["generic"]
+# Equality rows of each kind, by code (a limited joint has one more; a universal or generic
+# joint's count is its locked axes').
 ROWS_OF_KIND = (3, 5, 6, 5, 1, 0)
+# How each axis of a universal or generic joint moves.
+FREE, LOCKED, LIMITED = 0, 1, 2
+
+
+@njit(allocates=False)
+def has_axes(kind):
+    """Whether a joint of this kind holds each of six axes free, locked or limited."""
+    return kind == UNIVERSAL or kind == GENERIC
+
+
+@njit(allocates=False)
+def axis_state(f, k):
+    """``FREE``, ``LOCKED`` or ``LIMITED``: how axis k (0-2 travel, 3-5 turns) moves."""
+    lower, upper = f[AXIS_LOWER + k], f[AXIS_UPPER + k]
+    if lower == 0.0 and upper == 0.0:
+        return LOCKED
+    if lower == -math.inf and upper == math.inf:
+        return FREE
+    return LIMITED
+
+
+@njit(allocates=False)
+def _axes_in(f, state, first):
+    """How many of the three axes from ``first`` are in ``state``."""
+    return (
+        (axis_state(f, first) == state) + (axis_state(f, first + 1) == state)
+        + (axis_state(f, first + 2) == state)
+    )  # fmt: skip
+
+
+@njit(allocates=False)
+def equality_row_count(kind, f):
+    """A joint's equality rows: its kind's, or a universal or generic joint's locked axes."""
+    if has_axes(kind):
+        return _axes_in(f, LOCKED, 0) + _axes_in(f, LOCKED, 3)
+    return ROWS_OF_KIND[kind]
 
 
 @njit(allocates=False)
 def joint_row_count(kind, f):
     """Rows of a joint: its kind's, one for a spherical joint's cone if it has one, and one
-    for its limits if it has any."""
+    for its limits if it has any (a universal or generic joint: one per axis not free)."""
+    if has_axes(kind):
+        return 6 - _axes_in(f, FREE, 0) - _axes_in(f, FREE, 3)
     limited = f[LOWER] > -math.inf or f[UPPER] < math.inf
     return ROWS_OF_KIND[kind] + (1 if f[CONE] < math.inf else 0) + (1 if limited else 0)
 
@@ -168,6 +222,8 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
     ra, rb, gap = _frames(f, xa, qa, xb, qb)
     zero = (0.0, 0.0, 0.0)
     k = first
+    if has_axes(kind):
+        return _axis_rows(f, xa, qa, xb, qb, ra, gap, rows, first, active_limits_only)
     if kind == DISTANCE:
         lin, ang_a, ang_b, length = _along_line(ra, rb, gap)
         write_row(rows, k, lin, ang_a, ang_b, length - f[LENGTH])
@@ -212,6 +268,150 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
         _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only)
         k += 1
     return k - first
+
+
+@njit(allocates=False)
+def joint_frames(f, qa, qb):
+    """World axes of a universal or generic joint's frame on body b (x_b, y_b, z_b) and on
+    body a (x_a, y_a, z_a): b's frame carried by a since creation, when the two coincided."""
+    carried = mul(qa, conjugate(_relative(f)))
+    b = (rotate(qb, _vector(f, AXIS_B)), rotate(qb, _vector(f, NORMAL_B)),
+         rotate(qb, _vector(f, BINORMAL_B)))  # fmt: skip
+    a = (rotate(carried, _vector(f, AXIS_B)), rotate(carried, _vector(f, NORMAL_B)),
+         rotate(carried, _vector(f, BINORMAL_B)))  # fmt: skip
+    return b, a
+
+
+@njit(allocates=False)
+def _relative(f):
+    return (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
+            f[RELATIVE_ORIENTATION + 3])  # fmt: skip
+
+
+@njit(allocates=False)
+def _square_pair(fb, fa, locked):
+    """(u, v) of the one locked turn of a joint whose other two turn (module docstring)."""
+    if locked == 2:
+        return fb[0], fa[1]
+    if locked == 1:
+        return fb[0], fa[2]
+    return fb[1], fa[2]
+
+
+@njit(allocates=False)
+def _axis_rows(f, xa, qa, xb, qb, ra, gap, rows, first, active_limits_only):
+    """The rows of a universal or generic joint (module docstring): its locked travels, its
+    locked turns, then a limit row per limited axis. Returns how many."""
+    fb, fa = joint_frames(f, qa, qb)
+    arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+    zero = (0.0, 0.0, 0.0)
+    k = first
+    for axis in range(3):
+        if axis_state(f, axis) == LOCKED:
+            d = fb[axis]
+            across = _cross(arm, d)
+            write_row(rows, k, d, _cross(ra, d), (-across[0], -across[1], -across[2]),
+                      _dot(gap, d))  # fmt: skip
+            k += 1
+    locked = _axes_in(f, LOCKED, 3)
+    if locked == 3:
+        theta = _orientation_error(f, qa, qb)
+        for axis in range(3):
+            e = (1.0 if axis == 0 else 0.0, 1.0 if axis == 1 else 0.0, 1.0 if axis == 2 else 0.0)
+            write_row(rows, k, zero, e, (-e[0], -e[1], -e[2]), theta[axis])
+            k += 1
+    elif locked == 2:
+        turn = _lone_turn(f)
+        a = fa[turn]
+        for other in range(3):
+            if other != turn:
+                t = _cross(a, fb[other])
+                write_row(rows, k, zero, t, (-t[0], -t[1], -t[2]), _dot(a, fb[other]))
+                k += 1
+    elif locked == 1:
+        held = 0 if axis_state(f, 3) == LOCKED else (1 if axis_state(f, 4) == LOCKED else 2)
+        u, v = _square_pair(fb, fa, held)
+        t = _cross(v, u)
+        write_row(rows, k, zero, t, (-t[0], -t[1], -t[2]), _dot(u, v))
+        k += 1
+    for axis in range(6):
+        if axis_state(f, axis) != LIMITED:
+            continue
+        lin, ang_a, ang_b, position = _frame_axis(f, axis, qa, qb, fb, fa, ra, arm, gap)
+        lower, upper = f[AXIS_LOWER + axis], f[AXIS_UPPER + axis]
+        beyond = position - lower if position < lower else max(position - upper, 0.0)
+        if active_limits_only and beyond == 0.0:
+            write_row(rows, k, zero, zero, zero, 0.0)
+        else:
+            write_row(rows, k, lin, ang_a, ang_b, beyond)
+        k += 1
+    return k - first
+
+
+@njit(allocates=False)
+def _lone_turn(f):
+    """The turn (0-2) a joint that locks the other two leaves."""
+    for turn in range(3):
+        if axis_state(f, 3 + turn) != LOCKED:
+            return turn
+    return 0
+
+
+@njit(allocates=False)
+def frame_axis_row(f, axis, xa, qa, xb, qb):
+    """(lin, ang_a, ang_b, position) of axis ``axis`` (0-2 travel, 3-5 turns) of a universal
+    or generic joint: the row that moves the joint along it, and where it is (module
+    docstring)."""
+    ra, _, gap = _frames(f, xa, qa, xb, qb)
+    fb, fa = joint_frames(f, qa, qb)
+    arm = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
+    return _frame_axis(f, axis, qa, qb, fb, fa, ra, arm, gap)
+
+
+@njit(allocates=False)
+def _frame_axis(f, axis, qa, qb, fb, fa, ra, arm, gap):
+    """``frame_axis_row`` from the joint's frames and arms."""
+    if axis < 3:
+        d = fb[axis]
+        across = _cross(arm, d)
+        return d, _cross(ra, d), (-across[0], -across[1], -across[2]), _dot(gap, d)
+    turn = axis - 3
+    if _axes_in(f, LOCKED, 3) == 2:
+        # a lone turn: a hinge's angle about its axis, the full turn round
+        d = fb[turn]
+        e = mul(mul(conjugate(qb), qa), conjugate(_relative(f)))
+        angle = _wrapped(2.0 * math.atan2(_dot(e, _vector(f, (AXIS_B, NORMAL_B, BINORMAL_B)[turn])),
+                                          e[3]))  # fmt: skip
+        return (0.0, 0.0, 0.0), d, (-d[0], -d[1], -d[2]), angle
+    # Cardan angles: R_rel = Rx(alpha) Ry(beta) Rz(gamma), M_ij = fb[i] . fa[j]
+    x, z = fb[0], fa[2]
+    middle = _cross(z, x)
+    c = math.sqrt(_dot(middle, middle))  # cos(beta) >= 0
+    if c == 0.0:  # gimbal lock: alpha and gamma turn about one axis
+        d = fb[turn]
+        return (0.0, 0.0, 0.0), d, (-d[0], -d[1], -d[2]), 0.0
+    y = (middle[0] / c, middle[1] / c, middle[2] / c)
+    if turn == 0:
+        u = _cross(y, z)
+        angle = math.atan2(-_dot(fb[1], z), _dot(fb[2], z))
+    elif turn == 1:
+        u = (y[0] * c, y[1] * c, y[2] * c)
+        angle = math.atan2(_dot(x, z), c)
+    else:
+        u = _cross(x, y)
+        angle = math.atan2(-_dot(x, fa[1]), _dot(x, fa[0]))
+    u = (u[0] / c, u[1] / c, u[2] / c)
+    return (0.0, 0.0, 0.0), u, (-u[0], -u[1], -u[2]), angle
+
+
+@njit(allocates=False)
+def _wrapped(angle):
+    """An angle in (-pi, pi]."""
+    if angle > math.pi:
+        return angle - 2.0 * math.pi
+    if angle <= -math.pi:
+        return angle + 2.0 * math.pi
+    return angle
 
 
 @njit(allocates=False)
@@ -327,11 +527,14 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
 
     Position and velocity are a revolute joint's angle (rad, in (-pi, pi]) and rate, a
     prismatic joint's travel and speed, a distance joint's length and rate, all of body a
-    relative to body b about / along +axis; zero for the other kinds. Gap is how far the
+    relative to body b about / along +axis; zero for the other kinds (a universal or
+    generic joint's axes are read by ``frame_axis_row``). Gap is how far the
     joint is from holding its position rows (a rope's or spring's: how far its length is
     beyond its limits), angular error how far from its angular rows.
     """
     ra, _, gap = _frames(f, xa, qa, xb, qb)
+    if has_axes(kind):
+        return 0.0, 0.0, _axes_gap(f, qb, gap), _axes_angle_error(f, qa, qb)
     axis_b = rotate(qb, _vector(f, AXIS_B))
     # velocity of a's anchor relative to the point of b under it
     arm_b = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
@@ -368,12 +571,46 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
     return position, velocity, distance, angle_error
 
 
+@njit(allocates=False)
+def _axes_gap(f, qb, gap):
+    """How far a universal or generic joint's anchors are from its locked travels (m)."""
+    total = 0.0
+    for axis in range(3):
+        if axis_state(f, axis) == LOCKED:
+            d = rotate(qb, _vector(f, (AXIS_B, NORMAL_B, BINORMAL_B)[axis]))
+            total += _dot(gap, d) ** 2
+    return math.sqrt(total)
+
+
+@njit(allocates=False)
+def _axes_angle_error(f, qa, qb):
+    """How far (rad) a universal or generic joint's orientation is from its locked turns: the
+    relative turn (all three locked), the free turn's axes' angle (two), or the Cardan
+    pair's angle from square (one)."""
+    locked = _axes_in(f, LOCKED, 3)
+    if locked == 0:
+        return 0.0
+    if locked == 3:
+        theta = _orientation_error(f, qa, qb)
+        return 2.0 * math.asin(min(0.5 * math.sqrt(_dot(theta, theta)), 1.0))
+    fb, fa = joint_frames(f, qa, qb)
+    if locked == 2:
+        turn = _lone_turn(f)
+        c = _cross(fa[turn], fb[turn])
+        return math.atan2(math.sqrt(_dot(c, c)), _dot(fa[turn], fb[turn]))
+    held = 0 if axis_state(f, 3) == LOCKED else (1 if axis_state(f, 4) == LOCKED else 2)
+    u, v = _square_pair(fb, fa, held)
+    return abs(math.asin(max(-1.0, min(_dot(u, v), 1.0))))
+
+
 @njit
 def read_joints(ints, floats, position, orientation, velocity, angular_velocity):
-    """(m, 4) float64: ``joint_readout`` of every joint (``JointSet`` arrays ``ints``,
-    ``floats``) from the bodies' (>= n, 3) positions, (>= n, 4) orientations and (>= n, 3)
-    world velocities and angular velocities."""
-    out = np.empty((len(ints), 4))
+    """(m, 16) float64: ``joint_readout`` of every joint (``JointSet`` arrays ``ints``,
+    ``floats``) in columns 0-3, then a universal or generic joint's six axes' positions and
+    rates (``frame_axis_row``; NaN for the other kinds), from the bodies' (>= n, 3)
+    positions, (>= n, 4) orientations and (>= n, 3) world velocities and angular
+    velocities."""
+    out = np.full((len(ints), 16), np.nan)
     zero, identity = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
     for j in range(len(ints)):
         a, b = ints[j, 1], ints[j, 2]
@@ -384,6 +621,13 @@ def read_joints(ints, floats, position, orientation, velocity, angular_velocity)
         out[j, 0], out[j, 1], out[j, 2], out[j, 3] = joint_readout(
             ints[j, 0], floats[j], xa, qa, va, wa, xb, qb, vb, wb
         )
+        if has_axes(ints[j, 0]):
+            for axis in range(6):
+                lin, ang_a, ang_b, where = frame_axis_row(floats[j], axis, xa, qa, xb, qb)
+                out[j, 4 + axis] = where
+                out[j, 10 + axis] = (
+                    _dot(lin, va) - _dot(lin, vb) + _dot(ang_a, wa) + _dot(ang_b, wb)
+                )
     return out
 
 

@@ -16,6 +16,14 @@ bodies' own frames at creation, so the joint is zero where it was made:
 * the limits of a hinge's angle (rad), a slider's travel (m), a distance joint's length
   (m) or a spherical joint's twist (rad), -inf and inf where none, and a spherical joint's
   cone (rad, inf where none);
+* a universal or generic joint's six axes (``AXIS_LOWER``, ``AXIS_UPPER``): travel along
+  the joint frame's x, y and z, then turns about them, each free (-inf, inf), locked (0, 0)
+  or limited (lower < upper). The joint frame is (axis, normal_b, binormal_b) on body b and
+  the same frame carried by body a (it coincides with b's at creation). A turn's position
+  is its Cardan angle: body a's orientation relative to b is Rx(alpha) Ry(beta) Rz(gamma)
+  in the joint frame (Bullet's generic joint's convention), so beta is within [-pi/2, pi/2]
+  and alpha and gamma lose their meaning where beta reaches it; a lone turn the other two
+  lock is a hinge's angle about its axis, in (-pi, pi];
 * its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
   or force it may use, a set torque (N m) or force (N), a position target with stiffness
   (N m/rad or N/m) and damping (N m s/rad or N s/m), or a servo (a position target held
@@ -39,9 +47,16 @@ kind (code)      rows   held
 ``FREE_LENGTH``  0      nothing: a distance joint with limits (a rope) or a spring, its
                         length free within its limits (``World.add_joint`` kind
                         "distance")
+"universal"      4      the anchors together, b's x axis square to a's y axis (a
+                        generic joint whose travel and z turn are locked)
+"generic"        0-6    each locked axis: travel along b's axis, or the turns (all
+                        three: the relative orientation; two: the free turn's axes
+                        parallel, as a hinge; one: the Cardan pair square, as a
+                        universal joint)
 ===============  =====  ============================================================
 
-A limited joint has one row more, written only where a limit is passed.
+A limited joint has one row more, written only where a limit is passed; a generic joint has
+one for each limited axis.
 """
 
 from __future__ import annotations
@@ -57,14 +72,19 @@ from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_ro
 __all__ = ["FREE_LENGTH", "JOINT_KINDS", "KIND_NAMES", "JointSet"]
 
 # Kind names and their codes in the kernels (``joint_rows``).
-JOINT_KINDS = {"spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "distance": 4}
+JOINT_KINDS = {
+    "spherical": 0, "revolute": 1, "fixed": 2, "prismatic": 3, "distance": 4, "universal": 6,
+    "generic": 7,
+}  # fmt: skip
 # The code of a distance joint that holds no rod (a rope, a spring): a kind of its own in the
 # kernels, since it has no equality row.
 FREE_LENGTH = 5
 # The name of each code, as World.joints reports it.
-KIND_NAMES = (*JOINT_KINDS, "distance")
-# Kinds the design names that this version does not build yet.
-_LATER_KINDS = ("universal", "generic")
+KIND_NAMES = tuple(
+    next(name for name, code in JOINT_KINDS.items() if code == c) if c != FREE_LENGTH
+    else "distance"
+    for c in range(len(JOINT_KINDS) + 1)
+)  # fmt: skip
 
 # Columns of ``JointSet.floats``.
 ARM_A, ARM_B, AXIS_A, AXIS_B, NORMAL_B, BINORMAL_B = 0, 3, 6, 9, 12, 15
@@ -75,7 +95,8 @@ LOWER, UPPER = 24, 25
 MOTOR, MOTOR_TARGET, MOTOR_MAX, MOTOR_STIFFNESS, MOTOR_DAMPING, MOTOR_SPEED = range(26, 32)
 SPRING_STIFFNESS, SPRING_REST, DAMPING, FRICTION = range(32, 36)
 CONE = 36
-JOINT_FLOATS = 37
+AXIS_LOWER, AXIS_UPPER = 37, 43
+JOINT_FLOATS = 49
 # Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque, a
 # position target with stiffness and damping, a servo (the position held as a constraint).
 NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
@@ -85,6 +106,12 @@ _AXIS_KINDS = ("revolute", "prismatic")
 # Kinds whose position (a hinge's angle, a slider's travel, a distance joint's length)
 # limits bound.
 _LIMITED_KINDS = ("revolute", "prismatic", "distance", "spherical")
+# Kinds whose frame is three axes: each of their six motions is free, locked or limited.
+_FRAME_KINDS = ("universal", "generic")
+# The six axes of a universal or generic joint, as errors name them.
+_AXIS_NAMES = ("travel x", "travel y", "travel z", "turn x", "turn y", "turn z")
+# Two axes given as square whose cosine exceeds this are refused (1e-6: a typo, not rounding).
+_SQUARE = 1e-6
 # Columns of ``JointSet.ints``.
 KIND, BODY_A, BODY_B = 0, 1, 2
 # An anchor may lie at most this many times a body's bounding radius from that body's centre
@@ -114,6 +141,8 @@ def _limits(kind: str, limits) -> tuple[float, float, float]:
         return -np.inf, np.inf, np.inf
     if kind == "spherical":
         return _cone_and_twist(limits)
+    if kind in _FRAME_KINDS:
+        return -np.inf, np.inf, np.inf  # an axis's own limits (``_axis_limits``)
     if kind not in _LIMITED_KINDS:
         raise ValueError(
             f"a {kind!r} joint has no free motion to limit; limits bound {_LIMITED_KINDS} joints"
@@ -161,6 +190,112 @@ def _cone_and_twist(limits) -> tuple[float, float, float]:
             f"({lower}, {upper})"
         )
     return lower, upper, cone
+
+
+def _joint_frame(kind: str, axis) -> np.ndarray:
+    """(3, 3) unit axes (x, y, z) of a joint's frame, as rows, from ``add``'s ``axis``: one
+    direction (x; y and z chosen square to it), or for a universal or generic joint two
+    square directions (x, y; z = x cross y)."""
+    values = np.asarray(axis, dtype=float) if _is_numeric(axis) else None
+    if values is not None and values.shape == (2, 3) and kind in _FRAME_KINDS:
+        x = as_finite_array(values[0], "axis[0]", shape=(3,))
+        y = as_finite_array(values[1], "axis[1]", shape=(3,))
+        nx, ny = float(np.linalg.norm(x)), float(np.linalg.norm(y))
+        if not (nx > 0.0 and ny > 0.0):
+            raise ValueError("axis has a direction of zero length; give two square directions")
+        x, y = x / nx, y / ny
+        if abs(float(x @ y)) > _SQUARE:
+            raise ValueError(
+                f"a {kind} joint's two axes must be square to each other (their cosine is "
+                f"{float(x @ y):.3g})"
+            )
+        y = y - (x @ y) * x  # square to round-off
+        y /= np.linalg.norm(y)
+        return np.stack([x, y, np.cross(x, y)])
+    if kind in _FRAME_KINDS and values is not None and values.ndim == 2:
+        raise ValueError(f"a {kind} joint's axis is one direction (3,) or two square ones (2, 3)")
+    x = as_finite_array(axis, "axis", shape=(3,))
+    length = float(np.linalg.norm(x))
+    if not length > 0.0:
+        raise ValueError("axis has zero length; give a direction such as (0, 0, 1)")
+    x = x / length
+    return np.stack([x, *_perpendiculars(x)])
+
+
+def _is_numeric(value) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _axis_limits(kind: str, axes, limits) -> tuple[np.ndarray, np.ndarray]:
+    """(6,) lower and upper bounds of a universal or generic joint's axes (module docstring)
+    from ``add``'s ``axes`` (generic) or ``limits`` (universal: its two turns' (lower, upper)
+    pairs); -inf and inf for the other kinds."""
+    if kind not in _FRAME_KINDS:
+        if axes is not None:
+            raise ValueError(f"axes are a generic joint's, not a {kind!r} joint's")
+        return np.full(6, -np.inf), np.full(6, np.inf)
+    if kind == "universal":
+        if axes is not None:
+            raise ValueError("a universal joint's axes are fixed; its limits bound its two turns")
+        turns = ("free", "free") if limits is None else _universal_limits(limits)
+        axes = ("locked", "locked", "locked", *turns, "locked")
+    elif limits is not None:
+        raise ValueError("a generic joint's limits are given in its axes: (lower, upper) entries")
+    if axes is None or isinstance(axes, str) or len(axes) != 6:
+        raise ValueError(
+            "a generic joint needs axes: six entries (travel along x, y, z, then turns about "
+            f"them), each 'free', 'locked' or (lower, upper); got {axes!r}"
+        )
+    lower, upper = np.empty(6), np.empty(6)
+    for k, entry in enumerate(axes):
+        if isinstance(entry, str) and entry in ("free", "locked"):
+            bound = np.inf if entry == "free" else 0.0
+            lower[k], upper[k] = -bound, bound
+            continue
+        try:
+            lower[k], upper[k] = (float(v) for v in entry)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"axes[{k}] ({_AXIS_NAMES[k]}) must be 'free', 'locked' or (lower, upper), got "
+                f"{entry!r}"
+            ) from exc
+        if np.isnan(lower[k]) or np.isnan(upper[k]) or not lower[k] < upper[k]:
+            raise ValueError(
+                f"axes[{k}] ({_AXIS_NAMES[k]}) limits must be numbers with lower < upper "
+                f"('locked' holds an axis at zero), got {entry!r}"
+            )
+    turning = np.flatnonzero(~((lower[3:] == 0.0) & (upper[3:] == 0.0)))
+    for k in turning:
+        # a lone turn is a hinge's angle; several are Cardan angles, the middle one's within
+        # a quarter turn either way
+        reach = np.pi / 2 if (k == 1 and len(turning) > 1) else np.pi
+        if -np.inf < lower[3 + k] < -reach or reach < upper[3 + k] < np.inf:
+            raise ValueError(
+                f"axes[{3 + k}] ({_AXIS_NAMES[3 + k]}) limits lie in [{-reach:.6g}, "
+                f"{reach:.6g}] rad (-inf or inf for none), got ({lower[3 + k]}, "
+                f"{upper[3 + k]})"
+            )
+    return lower, upper
+
+
+def _universal_limits(limits) -> tuple:
+    """A universal joint's ``limits``: ((lower, upper) of its turn about b's axis, (lower,
+    upper) of its turn about a's)."""
+    try:
+        first, second = limits
+        pairs = tuple(tuple(float(v) for v in pair) for pair in (first, second))
+        if any(len(pair) != 2 for pair in pairs):
+            raise ValueError
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            "a universal joint's limits are ((lower, upper), (lower, upper)) of its two turns, "
+            f"got {limits!r}"
+        ) from exc
+    return pairs
 
 
 def _motor(kind: str, motor) -> tuple[float, ...]:
@@ -292,14 +427,10 @@ class JointSet:
     def add(self, kind, body_a, body_b, anchor, axis, anchor_b, collide, name, bodies, options):
         """Validate a joint against ``bodies`` (``BodyArrays``) and append it; return its index.
 
-        See ``World.add_joint`` for the arguments; ``options`` holds ``limits``, ``motor``,
-        ``spring``, ``damping`` and ``friction`` (each left out: none).
+        See ``World.add_joint`` for the arguments; ``options`` holds ``limits``, ``axes``,
+        ``motor``, ``spring``, ``damping`` and ``friction`` (each left out: none).
         """
         if not isinstance(kind, str) or kind not in JOINT_KINDS:
-            if kind in _LATER_KINDS:
-                raise NotImplementedError(
-                    f"joint kind {kind!r} is not built yet; choose one of {list(JOINT_KINDS)}"
-                )
             raise ValueError(f"unknown joint kind {kind!r}; choose one of {list(JOINT_KINDS)}")
         a = self._body(body_a, "body_a", bodies, allow_world=False)
         b = self._body(body_b, "body_b", bodies, allow_world=True)
@@ -314,11 +445,9 @@ class JointSet:
         anchor_b = anchor if anchor_b is None else as_finite_array(anchor_b, "anchor_b", (3,))
         if kind != "distance" and anchor_b is not anchor and not np.array_equal(anchor, anchor_b):
             raise ValueError(f"anchor_b is for distance joints only, not {kind!r} joints")
-        axis = as_finite_array(axis, "axis", shape=(3,))
-        length = float(np.linalg.norm(axis))
-        if not length > 0.0:
-            raise ValueError("axis has zero length; give a direction such as (0, 0, 1)")
-        axis = axis / length
+        frame = _joint_frame(kind, axis)
+        axis, normal, binormal = frame
+        axis_lower, axis_upper = _axis_limits(kind, options.get("axes"), options.get("limits"))
         if b >= 0:
             self._check_reach(anchor, a, b, "anchor", bodies)
             if kind == "distance":
@@ -339,7 +468,6 @@ class JointSet:
         q_b = bodies.orientation[b] if b >= 0 else np.array([0.0, 0.0, 0.0, 1.0])
         x_b = bodies.position[b] if b >= 0 else np.zeros(3)
         to_a, to_b = quat_conjugate(q_a), quat_conjugate(q_b)
-        normal, binormal = _perpendiculars(axis)
         row = np.zeros(JOINT_FLOATS)
         row[ARM_A : ARM_A + 3] = quat_rotate(to_a, anchor - bodies.position[a])
         row[ARM_B : ARM_B + 3] = quat_rotate(to_b, anchor_b - x_b)
@@ -351,6 +479,8 @@ class JointSet:
         row[LENGTH] = length
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER], row[CONE] = _limits(kind, options.get("limits"))
+        row[AXIS_LOWER : AXIS_LOWER + 6] = axis_lower
+        row[AXIS_UPPER : AXIS_UPPER + 6] = axis_upper
         row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
         row[SPRING_STIFFNESS : FRICTION + 1] = _forces(kind, options, length)
         if name is not None and (not isinstance(name, str) or not name or "\0" in name):

@@ -43,13 +43,19 @@ from thesis_rbd.dynamics.contact_solver import (
 )
 from thesis_rbd.dynamics.contact_stats import EXACT_ISLANDS, MAX_SWEEPS, SWEEPS, UNCONVERGED
 from thesis_rbd.dynamics.joint_rows import (
-    ROWS_OF_KIND,
+    LIMITED,
     axis_row,
+    axis_state,
     body_pose,
     cone_angle,
+    equality_row_count,
+    frame_axis_row,
+    has_axes,
     joint_rows,
 )
 from thesis_rbd.dynamics.joint_set import (
+    AXIS_LOWER,
+    AXIS_UPPER,
     BODY_A,
     BODY_B,
     CONE,
@@ -209,10 +215,11 @@ def solve_jointed_island(
 @njit
 def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
     """The one-sided rows of the island's limits (a hinge's angle, a slider's travel, a
-    rope's length, a spherical joint's cone and twist), three per limit as a contact's (its
-    direction, then two zero rows).
+    rope's length, a spherical joint's cone and twist, a universal or generic joint's limited
+    axes), three per limit as a contact's (its direction, then two zero rows).
 
-    A lower limit's row is the joint's axis row (``joint_rows.axis_row``), an upper limit's
+    A lower limit's row is the joint's axis row (``joint_rows.axis_row``, or
+    ``frame_axis_row`` of a limited axis), an upper limit's
     (and a cone's) its negative, so that a positive impulse pushes the joint back within its
     limits; the bias lets it close the gap to its limit over the step and no more (a
     speculative limit: it stops on the limit as a contact stops on a floor), and a limit
@@ -224,6 +231,12 @@ def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
     for j in joints:
         count += (floats[j, LOWER] > -np.inf) + (floats[j, UPPER] < np.inf)
         count += floats[j, CONE] < np.inf
+        if has_axes(ints[j, KIND]):
+            for axis in range(6):
+                if axis_state(floats[j], axis) == LIMITED:
+                    count += (floats[j, AXIS_LOWER + axis] > -np.inf) + (
+                        floats[j, AXIS_UPPER + axis] < np.inf
+                    )
     J = np.zeros((3 * count, size))
     bias = np.empty(count)
     scale = np.ones(count)
@@ -241,20 +254,36 @@ def _limit_rows(joints, ints, floats, local, position, orientation, size, dt):
             scale[row] = f[SCALE]
             _write_limit(J, row, a, b, local, -1.0, (0.0, 0.0, 0.0), n, (-n[0], -n[1], -n[2]))
             row += 1
-        if not (f[LOWER] > -np.inf or f[UPPER] < np.inf):
-            continue
-        lin, ang_a, ang_b, where = axis_row(kind, f, xa, qa, xb, qb)
-        for side in range(2):
-            limit = f[LOWER] if side == 0 else f[UPPER]
-            if not math.isfinite(limit):
-                continue
-            sign = 1.0 if side == 0 else -1.0
-            bias[row] = max(sign * (where - limit), 0.0) / dt
-            if angular:
-                scale[row] = f[SCALE]
-            _write_limit(J, row, a, b, local, sign, lin, ang_a, ang_b)
-            row += 1
+        if has_axes(kind):
+            for axis in range(6):
+                if axis_state(f, axis) == LIMITED:
+                    lin, ang_a, ang_b, where = frame_axis_row(f, axis, xa, qa, xb, qb)
+                    row = _write_limits(J, bias, scale, row, a, b, local, dt,
+                                        f[AXIS_LOWER + axis], f[AXIS_UPPER + axis], lin, ang_a,
+                                        ang_b, where, f[SCALE] if axis >= 3 else 1.0)  # fmt: skip
+        elif f[LOWER] > -np.inf or f[UPPER] < np.inf:
+            lin, ang_a, ang_b, where = axis_row(kind, f, xa, qa, xb, qb)
+            row = _write_limits(J, bias, scale, row, a, b, local, dt, f[LOWER], f[UPPER], lin,
+                                ang_a, ang_b, where, f[SCALE] if angular else 1.0)  # fmt: skip
     return J, bias, scale
+
+
+@njit
+def _write_limits(J, bias, scale, row, a, b, local, dt, lower, upper, lin, ang_a, ang_b, where,
+                  length):  # fmt: skip
+    """The rows of a lower and an upper limit (each where finite) on a joint's row at
+    ``where`` from row ``row`` on (``_limit_rows``); ``length`` scales an angle's. Returns
+    the next row."""
+    for side in range(2):
+        limit = lower if side == 0 else upper
+        if not math.isfinite(limit):
+            continue
+        sign = 1.0 if side == 0 else -1.0
+        bias[row] = max(sign * (where - limit), 0.0) / dt
+        scale[row] = length
+        _write_limit(J, row, a, b, local, sign, lin, ang_a, ang_b)
+        row += 1
+    return row
 
 
 @njit
@@ -298,7 +327,7 @@ def _joint_jacobian(joints, ints, floats, local, position, orientation, size):
     """The equality rows of the joints (r, 6 k), columns (v, w) per island body."""
     total = 0
     for j in joints:
-        total += ROWS_OF_KIND[ints[j, KIND]]
+        total += equality_row_count(ints[j, KIND], floats[j])
     J = np.zeros((total, size))
     scratch = np.empty((_MOST_ROWS, 10))
     first = 0
@@ -307,7 +336,8 @@ def _joint_jacobian(joints, ints, floats, local, position, orientation, size):
         xa, qa = body_pose(a, position, orientation)
         xb, qb = body_pose(b, position, orientation)
         joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, scratch, 0, True)
-        for row in range(ROWS_OF_KIND[ints[j, KIND]]):
+        equalities = equality_row_count(ints[j, KIND], floats[j])
+        for row in range(equalities):
             for side in range(2):
                 body = a if side == 0 else b
                 if body < 0 or local[body] < 0:
@@ -317,7 +347,7 @@ def _joint_jacobian(joints, ints, floats, local, position, orientation, size):
                 for i in range(3):
                     J[first + row, column + i] = sign * scratch[row, i]
                     J[first + row, column + 3 + i] = scratch[row, 3 + 3 * side + i]
-        first += ROWS_OF_KIND[ints[j, KIND]]
+        first += equalities
     return J
 
 

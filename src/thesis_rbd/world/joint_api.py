@@ -34,31 +34,38 @@ class WorldJoints:
     def add_joint(
         self, kind: str, body_a: int, body_b: int | None, anchor, axis=(0.0, 0.0, 1.0),
         anchor_b=None, limits=None, motor=None, spring=None, damping: float = 0.0,
-        friction: float = 0.0, collide: bool = False, name: str | None = None,
+        friction: float = 0.0, collide: bool = False, name: str | None = None, axes=None,
     ) -> int:  # fmt: skip
         """Join two bodies (or a body and the world) and return the joint's index.
 
         Parameters
         ----------
-        kind : {"spherical", "revolute", "fixed", "prismatic", "distance"}
-            Ball joint, hinge about ``axis``, weld, slider along ``axis``, or a distance
-            joint between ``anchor`` and ``anchor_b``: a rod holding them at their distance
+        kind : {"spherical", "revolute", "fixed", "prismatic", "distance", "universal", \
+"generic"}
+            Ball joint, hinge about ``axis``, weld, slider along ``axis``, a distance
+            joint between ``anchor`` and ``anchor_b`` (a rod holding them at their distance
             now, or with ``limits`` or a ``spring``, a rope or spring whose length is free
-            within its limits.
+            within its limits), a universal joint (turning about ``axis[0]``, fixed in
+            body_b, and ``axis[1]``, fixed in body_a), or a generic joint whose six ``axes``
+            are each free, locked or limited.
         body_a : int
         body_b : int or None
             None joins body_a to the world.
         anchor : (3,) array_like
             World point where the bodies are joined, now (on body_a for a distance joint).
-        axis : (3,) array_like
-            World direction of a hinge or slider, now; need not be unit length.
+        axis : (3,) or (2, 3) array_like
+            World direction of a hinge or slider, now; need not be unit length. A universal
+            or generic joint's frame: two square directions (its x and y; z = x cross y),
+            or one (x; y and z chosen square to it).
         anchor_b : (3,) array_like, optional
             A distance joint's point on body_b (world, now).
         limits : (lower, upper), optional
             Bounds of a hinge's angle (rad, within [-pi, pi]), a slider's travel (m) or a
             distance joint's length (m, 0 <= lower <= upper: a rope of length L is (0, L)),
             -inf / inf for none: a one-sided row that acts only where a limit is reached,
-            held at the end of every substep (no overshoot, no bounce).
+            held at the end of every substep (no overshoot, no bounce). A spherical joint's
+            are (cone, twist_lo, twist_hi); a universal joint's ((lo, hi), (lo, hi)) of its
+            turns about axis[0] and axis[1] (the second within [-pi/2, pi/2]).
         motor : dict, optional
             A hinge's or slider's motor, SI units: ``{"velocity": v, "max_force": f}`` drives
             its rate towards v (rad/s or m/s) with at most f (N m or N); ``{"torque": t}``
@@ -82,6 +89,14 @@ class WorldJoints:
             Whether body_a and body_b still collide with each other (False by default).
         name : str, optional
             "joint<i>" by default.
+        axes : sequence of 6, optional
+            A generic joint's travel along its frame's x, y and z, then its turns about
+            them: each "free", "locked" (held at zero) or (lower, upper) limits (m, rad).
+            Turns are Cardan angles (body_a relative to body_b is Rx(a) Ry(b) Rz(c) in the
+            frame, Bullet's generic joint's convention): the middle one's limits lie within
+            [-pi/2, pi/2]; a lone turn the others lock is a hinge's angle, within [-pi, pi].
+            URDF's ``planar`` joint is ("free", "free", "locked", "locked", "locked",
+            "free") about its normal as z; ``floating`` is six "free" (a free body).
 
         Notes
         -----
@@ -92,8 +107,8 @@ class WorldJoints:
         """
         index = self._joints.add(
             kind, body_a, body_b, anchor, axis, anchor_b, collide, name, self.bodies,
-            {"limits": limits, "motor": motor, "spring": spring, "damping": damping,
-             "friction": friction},
+            {"limits": limits, "axes": axes, "motor": motor, "spring": spring,
+             "damping": damping, "friction": friction},
         )  # fmt: skip
         joined = self._joints.ints[index, BODY_A : BODY_B + 1]
         self._sleep.wake(joined[joined >= 0])
@@ -128,7 +143,10 @@ class WorldJoints:
         orientation is from what it holds (rad); ``force`` and ``torque`` (m, 3): what body_b
         (or the world) exerted on body_a over the last step, at the anchor, world frame (N,
         N m; the impulses of the step's projection and motor over dt); ``motor_force`` (m,)
-        the motor's torque or force along the axis over the last step (N m or N).
+        the motor's torque or force along the axis over the last step (N m or N);
+        ``axis_positions`` and ``axis_velocities`` (m, 6): a universal or generic joint's
+        travel along its frame's x, y, z (m) and Cardan turns about them (rad; a lone turn:
+        its hinge angle), and their rates, NaN for the other kinds.
         """
         joints, b = self._joints, self.bodies
         ints = joints.ints
@@ -152,6 +170,8 @@ class WorldJoints:
             "force": force.copy(),
             "torque": impulse[:, 3:6] - np.cross(arm.reshape(-1, 3), force),
             "motor_force": impulse[:, 6].copy(),
+            "axis_positions": readout[:, 4:10],
+            "axis_velocities": readout[:, 10:16],
         }
 
     @property
