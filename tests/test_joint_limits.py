@@ -134,8 +134,3 @@ def test_bad_cone_or_twist_limits_are_refused(limits):
     body = world.add_body(rbd.shapes.box(), mass=1.0)
     with pytest.raises(ValueError, match=r"limits|cone|twist"):
         world.add_joint("spherical", body, None, anchor=(0, 0, 0.5), limits=limits)
-
-
-def test_kinematic_bodies_say_they_are_not_built_yet():
-    with pytest.raises(NotImplementedError, match="kinematic"):
-        rbd.World().add_body(rbd.shapes.box(), kinematic=True)

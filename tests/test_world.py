@@ -115,7 +115,7 @@ def test_stage_plan_follows_the_scene_and_skipped_stages_are_never_called():
     # every stage a step can run has its entry, in pipeline order (as the guide lists them),
     # and the stages this scene does not plan show no call
     assert list(world.profile) == [
-        "forces", "contacts", "integrate", "joints", "bounds", "broad_phase",
+        "forces", "contacts", "integrate", "kinematic", "joints", "bounds", "broad_phase",
         "narrow_phase", "tunnelling", "time_of_impact", "impacts", "sleep",
     ]  # fmt: skip
     assert all(world.profile[name]["calls"] == 0 for name in world.profile if name != "integrate")

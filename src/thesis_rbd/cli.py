@@ -150,7 +150,9 @@ def _describe_scene(scene: Scene) -> str:
     lines.append(f"  [world] {settings}")
     for index, body in enumerate(scene.bodies):
         amount = (
-            "static"
+            "kinematic"
+            if body.kinematic
+            else "static"
             if body.static
             else f"mass {body.mass:g} kg"
             if body.mass is not None

@@ -134,6 +134,9 @@ class BodySpec:
         Forces applied from t = 0.
     collision_group, collision_mask : int
         Bit fields of :meth:`World.add_body`.
+    kinematic : bool
+        A body moved at its ``linear_velocity`` and ``angular_velocity`` that contacts and
+        joints push against (:meth:`World.add_body`).
     """
 
     name: str
@@ -151,6 +154,7 @@ class BodySpec:
     forces: tuple[ForceSpec, ...]
     collision_group: int = 1
     collision_mask: int = 0xFFFF
+    kinematic: bool = False
 
 
 @dataclass(frozen=True)
@@ -259,6 +263,7 @@ class Scene:
                     name=body.name,
                     collision_group=body.collision_group,
                     collision_mask=body.collision_mask,
+                    kinematic=body.kinematic,
                 )
                 for force in body.forces:
                     world.apply_force(handle, force.force, force.point, force.duration)
@@ -470,6 +475,7 @@ _BODY_KEYS = (
     "restitution",
     "friction",
     "static",
+    "kinematic",
     "collision_group",
     "collision_mask",
     "force",
@@ -491,13 +497,14 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
             "missing the 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] }"
         )
     static = _optional(table, "static", False, _as_bool, where)
+    kinematic = _optional(table, "kinematic", False, _as_bool, where)
     mass = _optional(table, "mass", None, _positive_number, where)
     density = _optional(table, "density", None, _positive_number, where)
     if mass is not None and density is not None:
         where.fail("give 'mass' or 'density', not both")
     shape_table = _as_table(table["shape"], where, "shape")
     mesh = _parse_shape(shape_table, where.field("shape"), folder)
-    if not static and not (mesh.is_closed and mesh.is_consistently_oriented):
+    if not (static or kinematic) and not (mesh.is_closed and mesh.is_consistently_oriented):
         where.field("shape").fail(
             "the mesh is not a closed, consistently oriented surface, so it has no volume "
             "and cannot be a dynamic body; set static = true or repair the mesh"
@@ -531,6 +538,7 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
         forces=forces,
         collision_group=_optional(table, "collision_group", 1, _integer, where),
         collision_mask=_optional(table, "collision_mask", 0xFFFF, _integer, where),
+        kinematic=kinematic,
     )
 
 

@@ -4,7 +4,10 @@ Each body i has the state (x_i, q_i, P_i, L_i): world position of its centre of 
 w) orientation of its body frame, linear momentum and angular momentum (world frame). Constant
 per body: the inverse mass and the inverse inertia tensor in the body frame, both zero for a
 static body (thesis 6.1.1), so every formula treats static bodies as infinitely heavy without a
-branch. Derived quantities follow the thesis:
+branch. A kinematic body is a static body that moves: immovable by contacts and joints, it
+carries the velocity and angular velocity its user set (``kinematic_velocity``,
+``kinematic_angular_velocity``, zero for every other body), which its own stage moves it by
+and which contacts and joints see as its velocity. Derived quantities follow the thesis:
 
     v = P / M,    I^-1 = R I_body^-1 R^T,    w = I^-1 L.
 
@@ -76,7 +79,12 @@ class BodyArrays:
     restitution, friction : (n,) float64
         Material coefficients, combined per contact by the rules of docs/design.md.
     static : (n,) bool
-        True for immovable bodies.
+        True for immovable bodies: static and kinematic ones.
+    kinematic : (n,) bool
+        True for the immovable bodies the user moves.
+    kinematic_velocity, kinematic_angular_velocity : (n, 3) float64
+        v and w (world frame, w about the centre of mass) of a kinematic body; zero for every
+        other body, so a kernel reads an immovable body's velocity from them without a branch.
     collidable : (n,) bool
         False for bodies that take part in no collision (free flight only).
     collision_group, collision_mask : (n,) int64
@@ -99,6 +107,9 @@ class BodyArrays:
         "restitution": ((), np.float64),
         "friction": ((), np.float64),
         "static": ((), np.bool_),
+        "kinematic": ((), np.bool_),
+        "kinematic_velocity": ((3,), np.float64),
+        "kinematic_angular_velocity": ((3,), np.float64),
         "collidable": ((), np.bool_),
         "collision_group": ((), np.int64),
         "collision_mask": ((), np.int64),
@@ -143,6 +154,11 @@ class BodyArrays:
             self._saved = tuple(np.empty_like(a) for a in state)
             self._save_arguments = state + self._saved
             self._restore_arguments = self._saved + state
+
+    def moving_kinematic(self) -> np.ndarray:
+        """(n,) bool: the kinematic bodies with a velocity or an angular velocity."""
+        moving = np.any(self.kinematic_velocity != 0.0, axis=1)
+        return moving | np.any(self.kinematic_angular_velocity != 0.0, axis=1)
 
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""

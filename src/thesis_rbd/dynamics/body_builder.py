@@ -51,6 +51,7 @@ def body_fields(
     collidable=True,
     collision_group=1,
     collision_mask=0xFFFF,
+    kinematic=False,
 ) -> dict:
     """Every ``BodyArrays`` field of one body, validated (see ``World.add_body``).
 
@@ -63,6 +64,13 @@ def body_fields(
         raise ValueError(f"mesh must be a TriangleMesh, got {type(mesh).__name__}")
     if mass is not None and density is not None:
         raise ValueError("give mass or density, not both")
+    if kinematic and static:
+        raise ValueError("a body is static or kinematic, not both: a kinematic body is moved")
+    if kinematic and (mass is not None or density is not None):
+        raise ValueError(
+            "a kinematic body takes no mass or density: contacts and joints cannot move it, "
+            "so to them it is infinitely heavy"
+        )
     position = as_finite_array(position, "position", shape=(3,))
     q = as_unit_quaternion(orientation)
     v = as_finite_array(linear_velocity, "linear_velocity", shape=(3,))
@@ -74,7 +82,7 @@ def body_fields(
     if not (math.isfinite(friction) and friction >= 0.0):
         raise ValueError(f"friction must be finite and >= 0, got {friction!r}")
 
-    if static:
+    if static or kinematic:
         center = (
             mass_properties(mesh).center_of_mass
             if mesh.is_closed and mesh.is_consistently_oriented
@@ -83,6 +91,7 @@ def body_fields(
         m, inv_m = math.inf, 0.0
         inertia, inv_inertia = np.zeros((3, 3)), np.zeros((3, 3))
         P, L = np.zeros(3), np.zeros(3)
+        v_kinematic, w_kinematic = (v, w) if kinematic else (np.zeros(3), np.zeros(3))
     else:
         if mass is not None:
             props = mass_properties(mesh, mass=as_positive_scalar(mass, "mass"))
@@ -98,6 +107,7 @@ def body_fields(
             R = quat_to_matrix(q)
             P = m * v
             L = R @ inertia @ R.T @ w
+        v_kinematic, w_kinematic = np.zeros(3), np.zeros(3)
         _check_mass_properties(
             m, inv_m, inertia, inv_inertia, "mass" if mass else "density", mesh.scale
         )
@@ -123,7 +133,10 @@ def body_fields(
         thickness=max(hull_thickness(mesh.vertices), 1e-3 * radius),
         restitution=restitution,
         friction=friction,
-        static=bool(static),
+        static=bool(static or kinematic),
+        kinematic=bool(kinematic),
+        kinematic_velocity=v_kinematic,
+        kinematic_angular_velocity=w_kinematic,
         collidable=bool(collidable),
         collision_group=_bits(collision_group, "collision_group"),
         collision_mask=_bits(collision_mask, "collision_mask"),

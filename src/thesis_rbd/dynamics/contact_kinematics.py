@@ -2,7 +2,8 @@
 
 Body velocities from momenta (v = P / M, w = I^-1 L with the world inverse inertia
 I^-1 = R I_body^-1 R^T), the normal velocity of a contact, each contact's slop, and writing
-momenta back from velocities. Static (immovable) bodies have zero velocity and inverse inertia.
+momenta back from velocities. Immovable bodies (static, kinematic or asleep) have zero inverse
+inertia and the velocity their user set: zero but for a kinematic body's.
 """
 
 from __future__ import annotations
@@ -79,10 +80,15 @@ def _world_inverse_inertia(q, inverse_inertia_body, R, out):
 
 @njit
 def body_velocities(count, static, orientation, linear_momentum, angular_momentum,
-                    inverse_mass, inverse_inertia_body):  # fmt: skip
+                    inverse_mass, inverse_inertia_body, kinematic_velocity,
+                    kinematic_angular_velocity):  # fmt: skip
     """v = P / M, w = I^-1 L and the world inverse inertia I^-1 = R I_body^-1 R^T.
 
-    Returns v, w (n, 3) and I^-1 (n, 3, 3), zero for the ``static`` (immovable) bodies.
+    ``static`` (>= n,) bool marks the immovable bodies (static, kinematic or asleep): their
+    inverse inertia is zero and their velocities are ``kinematic_velocity`` and
+    ``kinematic_angular_velocity`` (>= n, 3), world frame, zero but for a kinematic body's.
+
+    Returns v, w (n, 3) and I^-1 (n, 3, 3).
     """
     v = np.zeros((count, 3))
     w = np.zeros((count, 3))
@@ -90,6 +96,9 @@ def body_velocities(count, static, orientation, linear_momentum, angular_momentu
     R = np.empty((3, 3))
     for i in range(count):
         if static[i]:
+            for a in range(3):
+                v[i, a] = kinematic_velocity[i, a]
+                w[i, a] = kinematic_angular_velocity[i, a]
             continue
         _world_inverse_inertia(orientation[i], inverse_inertia_body[i], R, inverse_inertia[i])
         Ii = inverse_inertia[i]

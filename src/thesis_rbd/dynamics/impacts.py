@@ -95,7 +95,8 @@ def may_have_hit(
 @njit
 def find_hits(count, static, movers, solved, contact_ints, contact_floats, contact_count,
               position, orientation, linear_momentum, angular_momentum, inverse_mass,
-              inverse_inertia_body, thickness, slop_fraction):  # fmt: skip
+              inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity, thickness,
+              slop_fraction):  # fmt: skip
     """Contacts a moving body ran into during the step: it penetrates (depth > 0) and
     approaches. A body the contact stage moved (``solved``) ran into the other only where the
     contact is deeper than its slop: within it, it is a contact the body rests on.
@@ -110,6 +111,10 @@ def find_hits(count, static, movers, solved, contact_ints, contact_floats, conta
     ``ContactSet``), as the contact stage takes them: the fields are then sliced here, and
     the kernels both stages call are compiled for one kind of array.
 
+    ``static`` marks the immovable bodies, whose velocities are ``kinematic_velocity`` and
+    ``kinematic_angular_velocity`` (``body_velocities``): a body approaches a moving
+    kinematic body relative to it.
+
     Returns ``hits`` (c,) bool, ``receding`` (c,) bool and the body velocities v, w (n, 3)
     at the end of the step.
     """
@@ -119,7 +124,7 @@ def find_hits(count, static, movers, solved, contact_ints, contact_floats, conta
     c = contact_count
     v, w, _ = body_velocities(
         count, static, orientation, linear_momentum, angular_momentum, inverse_mass,
-        inverse_inertia_body,
+        inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity,
     )  # fmt: skip
     hits = np.zeros(c, np.bool_)
     receding = np.zeros(c, np.bool_)
@@ -147,7 +152,8 @@ def resolve_impacts(
     contact_count,
     position, orientation, linear_momentum, angular_momentum, inverse_mass,
     inverse_inertia_body, inertia_body, thickness, restitution, friction,
-    external_force, drag, pf_start, pf_arm, pf_force, impulse, joints,
+    kinematic_velocity, kinematic_angular_velocity, external_force, drag, pf_start, pf_arm,
+    pf_force, impulse, joints,
 ):  # fmt: skip
     """Resolve the islands with a stepped-back body and carry them to the end of the step.
 
@@ -167,6 +173,9 @@ def resolve_impacts(
         The contact set after the time-of-impact stage (c rows), packed as a ``ContactSet``.
     position ... friction
         Body state and constants; state of the islands' bodies updated in place.
+    kinematic_velocity, kinematic_angular_velocity : (>= n, 3) float64
+        The immovable bodies' velocities (``body_velocities``): a body collides with a moving
+        kinematic body at their relative velocity.
     external_force, drag, pf_start, pf_arm, pf_force
         The step's forces.
     impulse : (c, 3) float64
@@ -206,7 +215,7 @@ def resolve_impacts(
     slop = contact_tolerances(sa, sb, static, thickness, settings[cs.SLOP])
     v, w, inverse_inertia = body_velocities(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
-        inverse_inertia_body,
+        inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity,
     )  # fmt: skip
     v0 = v.copy()
     acceleration, alpha = _accelerations(

@@ -96,7 +96,7 @@ def _swept(f):
 @njit
 def drive_joints(
     h, joints, ints, floats, frozen, position, orientation, linear_momentum, angular_momentum,
-    inverse_mass, inverse_inertia_body, impulse,
+    inverse_mass, inverse_inertia_body, impulse, kinematic_velocity, kinematic_angular_velocity,
 ):  # fmt: skip
     """Apply the motors, springs, dampers and friction of an island's ``joints`` for a
     substep of length h, in place.
@@ -113,6 +113,9 @@ def drive_joints(
         Each joint's impulses over the step: the motors', springs', dampers' and friction's
         are added to its linear and angular impulse on body a (columns 0-5), and the motors'
         along the axis to column 6.
+    kinematic_velocity, kinematic_angular_velocity : (>= n, 3) float64
+        The frozen bodies' velocities (zero but for a kinematic body's): a joint's motion is
+        relative to a moving kinematic body it holds to.
     """
     sweeps = 0
     for j in joints:
@@ -137,7 +140,8 @@ def drive_joints(
                                        inverse_mass, inverse_inertia_body, rows, moved)  # fmt: skip
             velocity, mass, reaction = _held_motion(
                 j, ints, frozen, count, rows, moved, linear_momentum, angular_momentum,
-                inverse_mass, orientation, inverse_inertia_body,
+                inverse_mass, orientation, inverse_inertia_body, kinematic_velocity,
+                kinematic_angular_velocity,
             )  # fmt: skip
             if not mass > 0.0:
                 continue
@@ -191,7 +195,7 @@ def _motor_rows(j, ints, floats, frozen, position, orientation, inverse_mass,
 
 @njit
 def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orientation,
-                 inverse_inertia_body):  # fmt: skip
+                 inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity):  # fmt: skip
     """The motor row's velocity and effective mass with its joint's own rows held, and the
     joint rows' reaction per unit motor impulse: the motor turns a hinged body about the
     hinge (its inertia about the axis through the anchor), not about its own centre."""
@@ -205,12 +209,18 @@ def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orient
         speeds[k] = 0.0
         for side in range(2):
             body = ints[j, BODY_A + side]
-            if body < 0 or frozen[body]:
+            if body < 0:
+                continue
+            sign = 1.0 if side == 0 else -1.0
+            if frozen[body]:
+                # a kinematic body moves at its set velocity (a static one's is zero)
+                for c in range(3):
+                    speeds[k] += sign * rows[k, c] * kinematic_velocity[body, c]
+                    speeds[k] += rows[k, 3 + 3 * side + c] * kinematic_angular_velocity[body, c]
                 continue
             q = orientation[body]
             w = angular_velocity((q[0], q[1], q[2], q[3]), (L[body, 0], L[body, 1], L[body, 2]),
                                  inverse_inertia_body[body])  # fmt: skip
-            sign = 1.0 if side == 0 else -1.0
             for c in range(3):
                 speeds[k] += sign * rows[k, c] * P[body, c] * inverse_mass[body]
                 speeds[k] += rows[k, 3 + 3 * side + c] * w[c]

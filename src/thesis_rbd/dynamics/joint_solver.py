@@ -9,7 +9,9 @@ sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep
   has its final momenta for the whole step), and the joints' motors, springs, dampers and
   friction act (``joint_motors``);
 * positions follow the new momenta, x += h v, q turned freely with L held: symplectic Euler,
-  whatever ``World.integrator`` says;
+  whatever ``World.integrator`` says; the static and kinematic bodies the joints hold to are
+  placed where they are at the substep's start and end (a kinematic one moves within the
+  step, ``kinematic.place_partners``);
 * every joint is put back together by Newton's method on all rows of its island at once, a
   SHAKE-type projection: the correction moves the bodies along M^-1 J^T dlam with the rows'
   directions J taken at the start of the substep, dlam solving (J_now M^-1 J_start^T) dlam =
@@ -49,6 +51,7 @@ from thesis_rbd.dynamics.joint_rows import (
 )
 from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
 from thesis_rbd.dynamics.joint_tree import factor_tree, left_solve, lu_in_place, solve_tree
+from thesis_rbd.dynamics.kinematic import joint_partners, place_partners
 from thesis_rbd.spatial.quaternion import mul, normalize
 
 __all__ = [
@@ -80,7 +83,8 @@ def step_jointed_bodies(
     island_bodies, island_tree, neighbour_start, neighbour, substep_position,
     substep_orientation, position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
-    save_start, start_position, start_orientation, impulse,
+    save_start, start_position, start_orientation, impulse, kinematic_velocity,
+    kinematic_angular_velocity,
 ):  # fmt: skip
     """Move the jointed bodies over the step, island by island (module docstring), in place.
 
@@ -104,6 +108,10 @@ def step_jointed_bodies(
         In: each joint's impulse on body a over the last step (the automatic substeps
         follow it); out: over this step (``project_island``, ``drive_joints``; column 6 is
         the motor's along the axis).
+    kinematic_velocity, kinematic_angular_velocity : (>= n, 3) float64
+        The velocities of the frozen bodies joints hold to (zero but for kinematic ones, which
+        the kinematic stage has moved to the end of the step): each substep places them
+        where they are at its start and end (``kinematic.place_partners``).
     Other parameters as ``integrate_bodies``.
 
     Returns
@@ -131,6 +139,7 @@ def step_jointed_bodies(
             joints, bodies, ints, floats, neighbour_start[first : last + 1], neighbour, tree
         )
         saved = _island_state(bodies, position, orientation, linear_momentum, angular_momentum)
+        partners, ends = joint_partners(joints, ints, frozen, position, orientation)
         while True:
             for j in joints:
                 impulse[j, :] = 0.0
@@ -138,7 +147,8 @@ def step_jointed_bodies(
                 parts, dt / parts, joints, bodies, tree, ints, floats, frozen, solved,
                 substep_position, substep_orientation, position, orientation, linear_momentum,
                 angular_momentum, inverse_mass, inverse_inertia_body, external_force, drag,
-                pf_start, pf_arm, pf_force, impulse, scratch,
+                pf_start, pf_arm, pf_force, impulse, scratch, partners, ends, kinematic_velocity,
+                kinematic_angular_velocity,
             )  # fmt: skip
             if held or substeps > 0 or parts >= MOST_SUBSTEPS:
                 break
@@ -161,12 +171,19 @@ def _substeps(
     parts, h, joints, bodies, tree, ints, floats, frozen, solved, substep_position,
     substep_orientation, position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
-    impulse, scratch,
+    impulse, scratch, partners, ends, kinematic_velocity, kinematic_angular_velocity,
 ):  # fmt: skip
-    """The island's step in ``parts`` substeps of length h (module docstring). Returns
-    whether every projection held its rows and every body stayed finite."""
+    """The island's step in ``parts`` substeps of length h (module docstring), its frozen
+    joint partners placed where they are at each substep's start and end (``partners``,
+    ``ends``: ``kinematic.joint_partners``). Returns whether every projection held its rows
+    and every body stayed finite."""
     held = True
-    for _ in range(parts):
+    for part in range(parts):
+        place_partners(
+            partners, ends, (parts - part) * h, (parts - 1 - part) * h, kinematic_velocity,
+            kinematic_angular_velocity, substep_position, substep_orientation, position,
+            orientation,
+        )  # fmt: skip
         for i in bodies:
             _kick(
                 i, h, solved, substep_position, substep_orientation, position, orientation,
@@ -175,7 +192,8 @@ def _substeps(
             )  # fmt: skip
         drive_joints(
             h, joints, ints, floats, frozen, position, orientation, linear_momentum,
-            angular_momentum, inverse_mass, inverse_inertia_body, impulse,
+            angular_momentum, inverse_mass, inverse_inertia_body, impulse, kinematic_velocity,
+            kinematic_angular_velocity,
         )  # fmt: skip
         for i in bodies:
             _drift(i, h, position, orientation, linear_momentum, angular_momentum,

@@ -69,8 +69,8 @@ def solve_contacts(
     settings, polygon, count, static, contact_ints, contact_floats, contact_count,
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
-    external_force, drag, pf_start, pf_arm, pf_force,
-    old_keys, old_values, new_keys, new_values, impulse, solved, stats, joints,
+    kinematic_velocity, kinematic_angular_velocity, external_force, drag, pf_start, pf_arm,
+    pf_force, old_keys, old_values, new_keys, new_values, impulse, solved, stats, joints,
 ):  # fmt: skip
     """Solve every island's contacts for this step and write the momenta of the bodies hit.
 
@@ -83,7 +83,7 @@ def solve_contacts(
     count : int
         Number of bodies n.
     static : (>= n,) bool
-        Bodies that do not move this step (static or asleep).
+        Bodies no impulse moves this step (static, kinematic or asleep).
     contact_ints, contact_floats, contact_count
         The c contacts at the start of the step, packed as a ``ContactSet``: bodies, world
         points, unit normals from b towards a, penetration depths (negative: a gap not yet
@@ -93,6 +93,9 @@ def solve_contacts(
         L = I w+ (world); position correction moves bodies.
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction
         Body constants.
+    kinematic_velocity, kinematic_angular_velocity : (>= n, 3) float64
+        The velocities of the immovable bodies, world frame (``body_velocities``): a contact
+        with a moving kinematic body sees its motion.
     external_force, drag, pf_start, pf_arm, pf_force
         The step's forces, as the integrator takes them.
     old_keys, old_values
@@ -133,7 +136,8 @@ def solve_contacts(
     stats[ISLANDS] = island_start.shape[0] - 1
     v0, w0, v, w, inverse_inertia = _velocities_before_and_after_forces(
         n, static, body_island, orientation, linear_momentum, angular_momentum, inverse_mass,
-        inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, settings[cs.DT],
+        inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity, external_force,
+        drag, pf_start, pf_arm, pf_force, settings[cs.DT],
     )  # fmt: skip
     sa = body_a[order]
     sb = body_b[order]
@@ -209,14 +213,15 @@ def solve_contacts(
 @njit(inline="always")
 def _velocities_before_and_after_forces(
     n, static, body_island, orientation, linear_momentum, angular_momentum, inverse_mass,
-    inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force, dt,
+    inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity, external_force, drag,
+    pf_start, pf_arm, pf_force, dt,
 ):  # fmt: skip
     """Body velocities before (v0, w0) and after (v, w) the step's forces, each (n, 3) (the
     forces act on the bodies of an island only: ``body_island`` (n,) >= 0), and the world
     inverse inertias (n, 3, 3)."""
     v0, w0, inverse_inertia = body_velocities(
         n, static, orientation, linear_momentum, angular_momentum, inverse_mass,
-        inverse_inertia_body,
+        inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity,
     )  # fmt: skip
     v = v0.copy()
     w = w0.copy()

@@ -4,15 +4,17 @@ A dynamic body is *still* while its speed stays below ``linear_tolerance`` bound
 second (a tolerance relative to its size: a 10 um part and a 100 m block sleep alike) and its
 angular speed below ``angular_tolerance``; an island (bodies joined by this step's contacts, static
 bodies excluded) falls asleep once every body in it has been still for ``time_to_sleep`` and it
-is supported: one of its bodies touches a static body or a sleeping island. Still alone is not
-at rest: a body at the top of its flight, or drifting slowly in zero gravity, never sleeps,
-whether the world holds one body or many.
+is supported: one of its bodies touches a static body, a kinematic body that does not move or a
+sleeping island. Still alone is not at rest: a body at the top of its flight, or drifting slowly
+in zero gravity, never sleeps, whether the world holds one body or many; nor does one carried by
+a moving kinematic body, whatever its speed (a box near the axis of a turntable).
 Asleep bodies have zero velocity and are frozen: the integrator, the narrow phase between
 two resting bodies and the contact solver all skip them, so a settled scene costs almost
 nothing (Box2D's and Bullet's islands sleep the same way).
 
-An island wakes as a whole when an awake body touches one of its bodies, or when a force is
-applied to one of them; the island a body slept in is remembered for that.
+An island wakes as a whole when an awake body or a moving kinematic body touches one of its
+bodies, or when a force is applied to one of them; the island a body slept in is remembered for
+that.
 
 While every awake body moves faster than ``linear_tolerance``, none has been still and no
 contact changed a velocity, an update would only keep every still-time at zero:
@@ -176,13 +178,11 @@ class SleepState:
         self.still[waking] = 0.0
         self.island[waking] = -1
 
-    def wake_touched(self, contacts, static: np.ndarray) -> bool:
-        """Wake sleeping islands touched by an awake dynamic body; True if any woke."""
+    def wake_touched(self, contacts, moving: np.ndarray) -> bool:
+        """Wake sleeping islands touched by a ``moving`` (n,) bool body (an awake dynamic
+        body, or a kinematic body with a velocity); True if any woke."""
         a, b = contacts["body_a"], contacts["body_b"]
-        awake_dynamic = ~(static | self.asleep)
-        hits = np.concatenate(
-            [b[awake_dynamic[a] & self.asleep[b]], a[awake_dynamic[b] & self.asleep[a]]]
-        )
+        hits = np.concatenate([b[moving[a] & self.asleep[b]], a[moving[b] & self.asleep[a]]])
         if len(hits) == 0:
             return False
         self.wake(hits)
@@ -194,7 +194,8 @@ class SleepState:
         Parameters
         ----------
         bodies : BodyArrays
-            After the contact response.
+            After the contact response; a kinematic body with a velocity supports nothing
+            that sleeps.
         contacts : ContactSet
             This step's contacts (they define the islands).
         dt : float
@@ -238,9 +239,10 @@ class SleepState:
             return np.zeros(0, np.int64)
         # an island sleeps only if none of its awake bodies is still moving, and only if it
         # rests on something that does not move: a static body or a sleeping island (a body
-        # slow at the top of its flight, or drifting in zero gravity, is still but not at rest)
+        # slow at the top of its flight, or drifting in zero gravity, is still but not at rest;
+        # one a moving kinematic body carries must go on being carried)
         moving_labels = np.unique(labels[awake & ~candidates])
-        held = static | self.asleep
+        held = (static & ~bodies.moving_kinematic()) | self.asleep
         on_support = np.concatenate([a[held[b] & ~held[a]], b[held[a] & ~held[b]], to_world])
         sleepy = candidates & ~np.isin(labels, moving_labels) & np.isin(labels, labels[on_support])
         fell = np.flatnonzero(sleepy)

@@ -444,7 +444,7 @@ class LiveView:
             return
         world = self.world
         name = world.names[index]
-        if world.bodies.static[index]:
+        if world.bodies.static[index] and not world.bodies.kinematic[index]:
             self.body_state.content = f"**{name}** (body {index}): static"
             return
         rows = [
@@ -453,7 +453,13 @@ class LiveView:
             ("velocity (m/s)", world.linear_velocity(index)),
             ("angular velocity (rad/s)", world.angular_velocity(index)),
         ]
-        asleep = " (asleep)" if world.sleeping[index] else ""
+        asleep = (
+            " (kinematic)"
+            if world.bodies.kinematic[index]
+            else " (asleep)"
+            if world.sleeping[index]
+            else ""
+        )
         lines = [f"**{name}** (body {index}){asleep}", "", "| | |", "| --- | --- |"]
         lines += [f"| {label} | {_vector(value)} |" for label, value in rows]
         self.body_state.content = "\n".join(lines)

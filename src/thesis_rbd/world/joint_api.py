@@ -150,10 +150,12 @@ class WorldJoints:
         """
         joints, b = self._joints, self.bodies
         ints = joints.ints
-        v = b.linear_momentum * b.inverse_mass[:, None]
+        # a kinematic body's velocity is the one set on it (zero for every other body)
+        v = b.linear_momentum * b.inverse_mass[:, None] + b.kinematic_velocity
         R = quat_to_matrix(b.orientation).reshape(-1, 3, 3)
         L_body = np.einsum("nji,nj->ni", R, b.angular_momentum)
         w = np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", b.inverse_inertia_body, L_body))
+        w += b.kinematic_angular_velocity
         readout = read_joints(ints, joints.floats, b.position, b.orientation, v, w)
         impulse = self._joint_impulse[: len(joints)] / self.dt
         arm = quat_rotate(b.orientation[ints[:, BODY_A]], joints.floats[:, ARM_A : ARM_A + 3])

@@ -50,23 +50,32 @@ class WorldReadout:
         return self.bodies.orientation[self._check_body(body)].copy()
 
     def linear_momentum(self, body: int) -> np.ndarray:
-        """(3,) P = M v (world)."""
+        """(3,) P = M v (world); zero for a static or kinematic body, which no impulse
+        changes."""
         return self.bodies.linear_momentum[self._check_body(body)].copy()
 
     def angular_momentum(self, body: int) -> np.ndarray:
-        """(3,) L about the centre of mass (world)."""
+        """(3,) L about the centre of mass (world); zero for a static or kinematic body."""
         return self.bodies.angular_momentum[self._check_body(body)].copy()
 
     def linear_velocity(self, body: int) -> np.ndarray:
-        """(3,) v = P / M (world); zero for a static body."""
+        """(3,) v = P / M (world); a kinematic body's the one set on it, zero for a static
+        body."""
         i = self._check_body(body)
-        return self.bodies.linear_momentum[i] * self.bodies.inverse_mass[i]
+        b = self.bodies
+        if b.static[i]:
+            return b.kinematic_velocity[i].copy()
+        return b.linear_momentum[i] * b.inverse_mass[i]
 
     def angular_velocity(self, body: int) -> np.ndarray:
-        """(3,) w = R I_body^-1 R^T L (world); zero for a static body."""
+        """(3,) w = R I_body^-1 R^T L (world); a kinematic body's the one set on it (about its
+        centre of mass), zero for a static body."""
         i = self._check_body(body)
-        R = quat_to_matrix(self.bodies.orientation[i])
-        return R @ self.bodies.inverse_inertia_body[i] @ R.T @ self.bodies.angular_momentum[i]
+        b = self.bodies
+        if b.static[i]:
+            return b.kinematic_angular_velocity[i].copy()
+        R = quat_to_matrix(b.orientation[i])
+        return R @ b.inverse_inertia_body[i] @ R.T @ b.angular_momentum[i]
 
     def transform(self, body: int) -> np.ndarray:
         """(4, 4) rigid transform from the body's mesh frame to the world."""
@@ -78,7 +87,8 @@ class WorldReadout:
         return T
 
     def kinetic_energy(self) -> float:
-        """Total kinetic energy sum(P^2 / 2M + L.w / 2) of the dynamic bodies (J)."""
+        """Total kinetic energy sum(P^2 / 2M + L.w / 2) of the dynamic bodies (J); static and
+        kinematic bodies, infinitely heavy, carry none."""
         b = self.bodies
         linear = 0.5 * np.einsum("ij,ij,i->", b.linear_momentum, b.linear_momentum, b.inverse_mass)
         L_body = quat_rotate(quat_conjugate(b.orientation), b.angular_momentum).reshape(-1, 3)

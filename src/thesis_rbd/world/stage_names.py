@@ -9,6 +9,7 @@ STAGE_NAMES = (
     "forces",
     "contacts",
     "integrate",
+    "kinematic",
     "joints",
     "bounds",
     "broad_phase",

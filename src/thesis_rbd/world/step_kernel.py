@@ -1,8 +1,8 @@
 """The step, written once: every stage of a world step in one kernel, in order, each behind
 its guard.
 
-    forces -> contacts -> integrate -> joints -> bounds -> broad_phase -> narrow_phase
-           -> tunnelling -> time_of_impact -> impacts -> sleep
+    forces -> contacts -> integrate -> kinematic -> joints -> bounds -> broad_phase
+           -> narrow_phase -> tunnelling -> time_of_impact -> impacts -> sleep
 
 ``run_steps`` runs steps from a given stage of the current one, as many as asked, and stops
 at the first stage whose guard holds but whose work needs Python:
@@ -41,6 +41,7 @@ from thesis_rbd.dynamics.contact_stats import BAD_BODY
 from thesis_rbd.dynamics.impacts import may_have_hit
 from thesis_rbd.dynamics.integrators import integrate_bodies
 from thesis_rbd.dynamics.joint_solver import step_jointed_bodies
+from thesis_rbd.dynamics.kinematic import move_kinematic_bodies
 from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.world.stage_names import STAGE_NAMES
 
@@ -49,6 +50,7 @@ __all__ = ["END_OF_STEP", "FINISHED", "run_steps"]
 FORCES = STAGE_NAMES.index("forces")
 CONTACTS = STAGE_NAMES.index("contacts")
 INTEGRATE = STAGE_NAMES.index("integrate")
+KINEMATIC = STAGE_NAMES.index("kinematic")
 JOINTS = STAGE_NAMES.index("joints")
 BOUNDS = STAGE_NAMES.index("bounds")
 BROAD_PHASE = STAGE_NAMES.index("broad_phase")
@@ -66,10 +68,11 @@ FINISHED = -1
 @njit
 def run_steps(
     steps, first, detect_only, time, dt, count, method, planned, gathers,
-    frozen, awake, any_asleep, still_any, sleep_tolerance2,
+    frozen, stationary, awake, any_asleep, still_any, sleep_tolerance2, kinematic_bodies,
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
-    external_force, drag, pf_start, pf_arm, pf_force,
+    kinematic_velocity, kinematic_angular_velocity, external_force, drag, pf_start, pf_arm,
+    pf_force,
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum,
     start_position, start_orientation, solved, reach_back,
     contact_group, joint_group, detection_group, convex_group,
@@ -102,15 +105,20 @@ def run_steps(
     gathers : bool
         Whether applied forces are active (the forces stage is then Python's).
     frozen : (>= n,) bool
-        Static or asleep: does not move.
+        Immovable: static, kinematic or asleep (the dynamics stages move none of them).
+    stationary : (>= n,) bool
+        Does not move this step: frozen, and not a kinematic body with a velocity (the
+        detection stages keep its boxes; two such bodies make no new contact).
     awake, any_asleep, still_any : bool
         Whether any body moves, any sleeps, any awake body has a still-time.
     sleep_tolerance2 : float
         The sleep stage's speed tolerance squared (1/s^2): while every moving body is faster,
         and no body is still or touching, it has nothing to do.
-    position ... friction
-        The body arrays (n rows or more), as ``integrate_bodies`` and ``solve_contacts`` take
-        them.
+    kinematic_bodies : (k,) int64
+        The kinematic bodies, which the kinematic stage moves.
+    position ... friction, kinematic_velocity, kinematic_angular_velocity
+        The body arrays (n rows or more), as ``integrate_bodies``, ``solve_contacts`` and
+        ``move_kinematic_bodies`` take them.
     external_force, drag, pf_start, pf_arm, pf_force
         The forces of the step (``AppliedForces.gather``).
     saved_position ... saved_angular_momentum
@@ -215,8 +223,9 @@ def run_steps(
                     settings, polygon, count, frozen, contacts[0], contacts[1], c, position,
                     orientation, linear_momentum, angular_momentum, inverse_mass,
                     inverse_inertia_body, inertia_body, thickness, restitution, friction,
-                    external_force, drag, pf_start, pf_arm, pf_force, warm[0], warm[1], keys,
-                    values, impulses, solved, stats, contact_joints,
+                    kinematic_velocity, kinematic_angular_velocity, external_force, drag,
+                    pf_start, pf_arm, pf_force, warm[0], warm[1], keys, values, impulses,
+                    solved, stats, contact_joints,
                 )  # fmt: skip
                 warm = (keys, values)
                 acted = (contacts[0], contacts[1], c, impulses)
@@ -240,6 +249,14 @@ def run_steps(
             if bad >= 0:
                 stop = INTEGRATE
                 break
+        if stage <= KINEMATIC and planned[KINEMATIC] and awake:
+            # before the joints stage, which places the bodies jointed to them from where
+            # this leaves them
+            move_kinematic_bodies(
+                kinematic_bodies, dt, kinematic_velocity, kinematic_angular_velocity, position,
+                orientation, detection_group is not None, start_position, start_orientation,
+            )  # fmt: skip
+            start = _count_stage(KINEMATIC, start, cycles, calls)
         if stage <= JOINTS and joint_group is not None and awake:
             bad = step_jointed_bodies(
                 joint_substeps, dt, count, frozen, solved, joint_ints, joint_floats, joint_start,
@@ -248,6 +265,7 @@ def run_steps(
                 orientation, linear_momentum, angular_momentum, inverse_mass,
                 inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
                 detection_group is not None, start_position, start_orientation, joint_impulse,
+                kinematic_velocity, kinematic_angular_velocity,
             )  # fmt: skip
             start = _count_stage(JOINTS, start, cycles, calls)
             if bad >= 0:
@@ -256,14 +274,14 @@ def run_steps(
         if detection_group is not None:
             if stage <= BOUNDS and planned[BOUNDS] and awake:
                 refit, fast_count, slowest = update_fat_bounds(
-                    count, refit_all, frozen, size, thickness, position, start_position,
+                    count, refit_all, stationary, size, thickness, position, start_position,
                     linear_momentum, inverse_mass, horizon, fat, fast,
                 )  # fmt: skip
                 if refit_all:
-                    # static and sleeping bodies do not move: their fat boxes are their tight
-                    # boxes
+                    # static, sleeping and still kinematic bodies do not move: their fat
+                    # boxes are their tight boxes
                     tight_bounds(
-                        np.flatnonzero(frozen[:count]), box_offset, box_half, size, position,
+                        np.flatnonzero(stationary[:count]), box_offset, box_half, size, position,
                         orientation, start_position, fast, thickness, speculative, reach, fat,
                     )  # fmt: skip
                     refit_all = False
@@ -277,7 +295,7 @@ def run_steps(
                     candidate_count = candidate_pairs(
                         fat_pairs, pair_members, box_offset, box_half, size, position,
                         orientation, start_position, fast, thickness, speculative, reach,
-                        tight, frozen, candidates,
+                        tight, stationary, candidates,
                     )  # fmt: skip
                     if candidate_count == 0:  # the narrow phase will not run this step
                         contacts = (no_ints, no_floats, 0)

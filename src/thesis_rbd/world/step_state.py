@@ -48,7 +48,12 @@ class StepState:
     point_forces : PointForces
         The active applied forces with a torque arm.
     frozen : (n,) bool
-        Static or asleep: does not move this step.
+        Immovable this step (static, kinematic or asleep): no contact, joint or force moves
+        it, and the integrator skips it.
+    stationary : (n,) bool
+        Does not move this step (frozen, and not a kinematic body with a velocity): the
+        detection stages keep its boxes, and two such bodies make no new contact. The same
+        array as ``frozen`` where no kinematic body moves.
     awake, any_asleep : bool
         Whether any body moves; whether any sleeps.
     candidate_count : int
@@ -90,6 +95,7 @@ class StepState:
     external_force: np.ndarray
     point_forces: PointForces
     frozen: np.ndarray
+    stationary: np.ndarray
     awake: bool
     any_asleep: bool
     candidate_count: int
@@ -115,7 +121,8 @@ class StepState:
             contacts=ContactSet.empty(), acted=ContactSet.empty(), impulses=np.zeros((0, 3)),
             warm_keys=np.zeros((0, 2), np.int64), warm_values=np.zeros((0, 6)),
             convex_cache=empty_cache(), external_force=np.zeros((count, 3)),
-            point_forces=PointForces.empty(count), frozen=np.zeros(count, bool), awake=False,
+            point_forces=PointForces.empty(count), frozen=np.zeros(count, bool),
+            stationary=np.zeros(count, bool), awake=False,
             any_asleep=False, candidate_count=0, fast_count=0, slowest=np.inf,
             fat_changed=False, refit_all=True, rewound=False, rewind=np.zeros(count),
             unrewound=(np.zeros((0, 3)), np.zeros((0, 4))),

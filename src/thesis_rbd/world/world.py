@@ -3,13 +3,14 @@
 A step runs only the stages the scene calls for (``World.stages``), each timed into
 ``World.profile``, and the stages hand each other one explicit value (``StepState``):
 
-    forces -> contacts -> integrate -> joints -> bounds -> broad_phase -> narrow_phase
-           -> tunnelling -> time_of_impact -> impacts -> sleep
+    forces -> contacts -> integrate -> kinematic -> joints -> bounds -> broad_phase
+           -> narrow_phase -> tunnelling -> time_of_impact -> impacts -> sleep
 
 ``contacts`` resolves the contacts found at the end of the previous step (where the bodies are
 now) before anything moves, so resting bodies never sink under gravity; ``integrate`` moves the
 bodies it acted on with their new velocities and every other free body by the chosen ODE
-method; ``joints`` moves the jointed bodies by symplectic Euler and holds their joints;
+method; ``kinematic`` moves the kinematic bodies by the velocities set on them; ``joints``
+moves the jointed bodies by symplectic Euler and holds their joints;
 detection then finds the contacts of the new positions, which are the next step's;
 ``time_of_impact`` steps bodies that flew into something back to the moment they touched, and
 ``impacts`` resolves those collisions and carries the bodies to the end of the step.
@@ -21,8 +22,8 @@ gather, a sweep-and-prune update, mesh pairs, the tunnelling sweep, a time of im
 impacts, the sleep stage). The world runs that stage (``_STAGES_IN_PYTHON``) and calls the
 kernel again from the next one. A scene pays only for the stages it calls for: no gravity or
 applied force, no forces stage; no dynamic body, nothing at all; fewer than two bodies, no
-collision stages; no contact response wanted (a detection-only scene), no contact stages; and
-what a scene lacks is compiled out of the kernel.
+collision stages; no contact response wanted (a detection-only scene), no contact stages; no
+kinematic body, no kinematic stage; and what a scene lacks is compiled out of the kernel.
 
 A step whose state turns non-finite (a huge force, a diverging solve) raises
 ``NonFiniteStateError`` naming the body, the stage and the step, and leaves the world as it
@@ -38,7 +39,7 @@ from typing import NoReturn
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array, as_positive_scalar
+from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline, some_pair_may_collide
 from thesis_rbd.dynamics.bodies import BodyArrays
@@ -68,6 +69,7 @@ from thesis_rbd.world.step_kernel import (
     FINISHED,
     FORCES,
     IMPACTS,
+    KINEMATIC,
     NARROW_PHASE,
     SLEEP,
     TIME_OF_IMPACT,
@@ -268,14 +270,16 @@ class World(WorldReadout, WorldJoints):
         mesh : TriangleMesh
             Shape in its own (mesh) frame; closed for a dynamic body.
         mass, density : float, optional
-            Give at most one; neither means density 1.0. Ignored for static bodies.
+            Give at most one; neither means density 1.0. Ignored for static bodies; a
+            kinematic body takes neither.
         position : (3,) array_like
             World position of the centre of mass (of the mesh frame origin for a static
             body whose mesh is open).
         orientation : (4,) array_like
             (x, y, z, w) rotation of the mesh frame into the world; normalised.
         linear_velocity, angular_velocity : (3,) array_like
-            Initial v and w, world frame.
+            Initial v and w, world frame (w about the centre of mass); a kinematic body keeps
+            them until ``set_kinematic`` changes them, a static body ignores them.
         restitution : float in [0, 1]
             Combined per contact as the product of the two bodies' values.
         friction : float >= 0
@@ -292,16 +296,16 @@ class World(WorldReadout, WorldJoints):
             other's mask (Bullet's rule); by default every body is in group 1 and collides
             with groups 1-16.
         kinematic : bool
-            A body moved by the user that contacts and joints push against: not built yet
-            (True raises NotImplementedError).
+            A body moved by the user (not static as well): infinitely heavy to contacts and
+            joints, which push against it and never move it; untouched by gravity and forces;
+            it moves by its velocity and angular velocity each step (constant v, constant w
+            about its centre of mass), and the bodies it touches or is jointed to see that
+            motion. Two kinematic bodies, or a kinematic and a static one, never collide.
+            ``set_kinematic`` moves it or changes its velocity between steps.
         """
-        if kinematic:
-            raise NotImplementedError(
-                "kinematic bodies are not built yet; a static body is the immovable kind"
-            )
         fields = body_fields(
             mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
-            restitution, friction, static, collidable, collision_group, collision_mask,
+            restitution, friction, static, collidable, collision_group, collision_mask, kinematic,
         )  # fmt: skip
         index = self.bodies.append(
             mesh, name if name is not None else f"body{self.bodies.count}", **fields
@@ -328,6 +332,11 @@ class World(WorldReadout, WorldJoints):
             means until the end of the run.
         """
         body = self._check_body(body)
+        if self.bodies.kinematic[body]:
+            raise ValueError(
+                f"body {body} is kinematic: no force moves it; give it a velocity with "
+                "set_kinematic"
+            )
         force = as_finite_array(force, "force", shape=(3,))
         if np.abs(force).max() > MOST_FORCE:
             raise ValueError(
@@ -344,6 +353,63 @@ class World(WorldReadout, WorldJoints):
         self.applied_forces.add(body, force, arm, remaining)
         self._sleep.wake(np.array([body]))
         self._plan_stages()
+
+    def set_kinematic(
+        self, body: int, position=None, orientation=None, velocity=None, angular_velocity=None
+    ) -> None:
+        """Move a kinematic body, or change its velocity, between steps.
+
+        Parameters
+        ----------
+        body : int
+            A kinematic body's index.
+        position : (3,) array_like, optional
+            Its centre of mass's new world position (m).
+        orientation : (4,) array_like, optional
+            Its new (x, y, z, w) orientation; normalised.
+        velocity, angular_velocity : (3,) array_like, optional
+            Its new v (m/s) and w (rad/s, about its centre of mass), world frame, which each
+            step from now moves it by.
+
+        Any argument left None keeps the body's current value. A new pose puts the body
+        there at once (a jump, with no velocity of its own: a body driven along a path moves
+        smoothly by its velocity), and the contacts are found again there before the next
+        step, as they are when the body starts to move, so that the bodies it touches wake.
+        """
+        body = self._check_body(body)
+        b = self.bodies
+        if not b.kinematic[body]:
+            raise ValueError(
+                f"body {body} ({b.names[body]!r}) is not kinematic: set_kinematic moves the "
+                "bodies added with kinematic=True"
+            )
+        x = None if position is None else as_finite_array(position, "position", shape=(3,))
+        q = None if orientation is None else as_unit_quaternion(orientation)
+        v = None if velocity is None else as_finite_array(velocity, "velocity", shape=(3,))
+        w = (
+            None
+            if angular_velocity is None
+            else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
+        )
+        was_moving = bool(b.moving_kinematic()[body])
+        if x is not None:
+            b.position[body] = x
+        if q is not None:
+            b.orientation[body] = q
+        if v is not None:
+            b.kinematic_velocity[body] = v
+        if w is not None:
+            b.kinematic_angular_velocity[body] = w
+        s = self._state
+        s.start_position[body], s.start_orientation[body] = b.position[body], b.orientation[body]
+        jumped = x is not None or q is not None
+        started = not was_moving and bool(b.moving_kinematic()[body])
+        if jumped or started:
+            # the contacts where the body is now, which wake the islands it touches; every
+            # fat box refitted around it
+            s.refit_all = True
+            self._contacts_stale = bool(self._planned[CONTACTS])
+        self._state = dataclasses.replace(s, **self._sleep_fields())
 
     @property
     def contact_settings(self) -> ContactSettings:
@@ -384,7 +450,7 @@ class World(WorldReadout, WorldJoints):
         jointed = dynamic and len(self._joints) > 0
         planned = {
             "forces": gathers_forces, "contacts": responds, "integrate": dynamic,
-            "joints": jointed,
+            "kinematic": bool(np.any(b.kinematic)), "joints": jointed,
             "bounds": collides, "broad_phase": collides, "narrow_phase": collides,
             "tunnelling": collides, "time_of_impact": toi, "impacts": toi, "sleep": sleeps,
         }  # fmt: skip
@@ -415,9 +481,10 @@ class World(WorldReadout, WorldJoints):
             *(full(f) for f in ("position", "orientation", "linear_momentum", "angular_momentum")),
             *(full(f) for f in (
                 "inverse_mass", "inverse_inertia_body", "inertia_body", "thickness",
-                "restitution", "friction",
+                "restitution", "friction", "kinematic_velocity", "kinematic_angular_velocity",
             )),
         )  # fmt: skip
+        self._kinematic_bodies = np.flatnonzero(b.kinematic)
         self._saved = b.saved_state()
         # the contact stage solves an island's contacts with its joints held
         contact_joints = (self._joints.ints, self._joints.floats) if jointed else None
@@ -449,13 +516,20 @@ class World(WorldReadout, WorldJoints):
         )  # fmt: skip
 
     def _sleep_fields(self) -> dict:
-        """The step state's fields that follow who sleeps: ``frozen`` (n,) bool marks the
-        bodies that do not move (static or asleep), ``awake`` whether any body moves,
-        ``any_asleep`` whether any sleeps."""
-        frozen = self.bodies.static | self._sleep.asleep
+        """The step state's fields that follow who sleeps and which kinematic bodies move:
+        ``frozen`` (n,) bool marks the immovable bodies (static, kinematic or asleep),
+        ``stationary`` (n,) bool those that do not move this step (frozen, less the kinematic
+        bodies with a velocity), ``awake`` whether any body moves, ``any_asleep`` whether any
+        sleeps."""
+        b = self.bodies
+        frozen = b.static | self._sleep.asleep
+        stationary = frozen
+        if self._planned[KINEMATIC]:
+            stationary = frozen & ~b.moving_kinematic()
         return dict(
-            frozen=frozen, awake=not bool(np.all(frozen)), any_asleep=self._sleep.any_asleep
-        )
+            frozen=frozen, stationary=stationary, awake=not bool(np.all(stationary)),
+            any_asleep=self._sleep.any_asleep,
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
@@ -514,12 +588,12 @@ class World(WorldReadout, WorldJoints):
             candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
         ) = run_steps(
             steps, first, detect_only, self.time, self.dt, self.bodies.count, self._method,
-            self._planned, len(self.applied_forces) > 0, s.frozen, s.awake, s.any_asleep,
-            self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
-            *self._kernel_bodies, s.external_force, self._drag_array, pf.start, pf.arm,
-            pf.force, *self._saved, s.start_position, s.start_orientation, s.solved,
-            s.reach_back, self._contact_group, self._joint_group, self._detection_group,
-            self._convex_group,
+            self._planned, len(self.applied_forces) > 0, s.frozen, s.stationary, s.awake,
+            s.any_asleep, self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
+            self._kinematic_bodies, *self._kernel_bodies, s.external_force, self._drag_array,
+            pf.start, pf.arm, pf.force, *self._saved, s.start_position, s.start_orientation,
+            s.solved, s.reach_back, self._contact_group, self._joint_group,
+            self._detection_group, self._convex_group,
             *handed_in,
             s.candidate_count, s.fast_count, s.slowest, s.fat_changed, s.refit_all, s.rewound,
             cycles, calls,
@@ -593,8 +667,9 @@ class World(WorldReadout, WorldJoints):
         moving body whose tight boxes overlap."""
         b = self.bodies
         count = self._collision.broad_phase(
-            True, b.full("position"), b.full("orientation"), s.start_position, s.fast, s.frozen
-        )
+            True, b.full("position"), b.full("orientation"), s.start_position, s.fast,
+            s.stationary,
+        )  # fmt: skip
         self._detection_group = self._collision.detection_arguments(self.dt, s.fast)
         contacts = s.contacts if count else ContactSet.empty()
         return dataclasses.replace(s, candidate_count=count, fat_changed=False, contacts=contacts)
@@ -608,12 +683,12 @@ class World(WorldReadout, WorldJoints):
             detector.candidates(s.candidate_count), position, orientation, s.convex_cache
         )
         sleep_before = self._sleep.snapshot() if s.any_asleep else None
-        if s.any_asleep and self._sleep.wake_touched(contacts, b.static):
+        if s.any_asleep and self._sleep.wake_touched(contacts, ~s.stationary):
             self._step_start.sleep = sleep_before
             s = dataclasses.replace(s, **self._sleep_fields())
             # the woken islands' own contacts were not candidates: find them now
             count = detector.broad_phase(
-                False, position, orientation, s.start_position, s.fast, s.frozen
+                False, position, orientation, s.start_position, s.fast, s.stationary
             )
             s = dataclasses.replace(s, candidate_count=count)
             contacts, cache = detector.contacts(
@@ -665,6 +740,7 @@ class World(WorldReadout, WorldJoints):
         state, masses = self._kernel_bodies[:4], self._kernel_bodies[4:6]
         hits, receding, v, _ = find_hits(
             n, s.frozen, movers, solved, c.ints, c.floats, c.count, *state, *masses,
+            b.full("kinematic_velocity"), b.full("kinematic_angular_velocity"),
             b.full("thickness"), SLOP_FRACTION,
         )  # fmt: skip
         a_, b_ = c["body_a"], c["body_b"]

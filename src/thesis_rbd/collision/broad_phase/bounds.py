@@ -71,8 +71,11 @@ def update_fat_bounds(
     everything : bool
         Refit every moving body's fat box (after a scene change).
     frozen : (>= n,) bool
-        Bodies that did not move this step (static or asleep): their fat boxes are kept (the
-        caller makes them their tight boxes: they do not move).
+        Bodies that did not move this step (static, asleep, or kinematic and still): their fat
+        boxes are kept (the caller makes them their tight boxes: they do not move). A moving
+        kinematic body (inverse mass 0) is checked against its fat box like any moving body
+        but is never fast (its motion is set, not swept back) and has no speed here (nothing
+        it does waits on the sleep stage).
     radius : (>= n,) float64
         Bounding radius r of each body's mesh about its centre of mass.
     thickness : (>= n,) float64
@@ -108,12 +111,13 @@ def update_fat_bounds(
             fast[i] = False
             continue
         x, x0, r = position[i], start_position[i], radius[i]
+        P, im = linear_momentum[i], inverse_mass[i]
         travel2 = (x[0] - x0[0]) ** 2 + (x[1] - x0[1]) ** 2 + (x[2] - x0[2]) ** 2
-        is_fast = travel2 > thickness[i] * thickness[i]
+        is_fast = travel2 > thickness[i] * thickness[i] and im > 0.0
         fast[i] = is_fast
         fast_count += is_fast
-        P, im = linear_momentum[i], inverse_mass[i]
-        slowest = min(slowest, (P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) * (im * im / (r * r)))
+        if im > 0.0:
+            slowest = min(slowest, (P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) * (im * im / (r * r)))
         for a in range(3):
             lower, upper = x[a] - r, x[a] + r
             if is_fast:

@@ -39,7 +39,9 @@ def _edge_gap(projection, radius, norm2):
     return (abs(projection) - radius) / math.sqrt(norm2)
 
 
-@njit
+# Inlined into the distance traversal, its only caller: called, it cost about 4 % of a
+# descent's time in passing its tuples and returning (the distance_paths poses that descend)
+@njit(inline="always")
 def box_box_gap(R, T, a, b, cutoff):
     """Lower bound on the distance between two boxes (0 when they may overlap).
 
