@@ -279,7 +279,7 @@ class Scene:
                     spring=None if joint.spring is None else dict(joint.spring),
                     damping=joint.damping, friction=joint.friction,
                 )  # fmt: skip
-            except (ValueError, NotImplementedError) as exc:
+            except ValueError as exc:
                 raise SceneError(f"{self.source}: joint[{index}]: {exc}") from exc
         return world
 

@@ -299,7 +299,7 @@ REBOUND_EXACT_CONTACTS = 160
 _PIVOT_TOLERANCES = (1e-7, 1e-5, 1e-10)
 
 
-@njit(separate=True)
+@njit(inline="always")
 def exact_contact_impulses(sides, A, u, bias, friction, velocity_scale):
     """Lemke's answer to the contact problem of the Delassus matrix ``A`` (3c, 3c) and the
     contact velocities ``u`` (3c,) before the impulses, rows (n, t1, t2) per contact.

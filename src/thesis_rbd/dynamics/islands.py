@@ -20,12 +20,21 @@ __all__ = ["find_islands", "find_linked_islands", "order_from_the_top"]
 def find_islands(body_count, body_a, body_b, static):
     """``find_linked_islands`` without links: bodies joined by their contacts only."""
     none = np.empty(0, np.int64)
-    return find_linked_islands(body_count, body_a, body_b, static, none, none)
+    return _label_islands(body_count, body_a, body_b, static, none, none)
 
 
 @njit(separate=True)
 def find_linked_islands(body_count, body_a, body_b, static, link_a, link_b):
-    """Label bodies and contacts by island, bodies joined by their contacts and by links.
+    """Label bodies and contacts by island, bodies joined by their contacts and by links
+    (``_label_islands``)."""
+    return _label_islands(body_count, body_a, body_b, static, link_a, link_b)
+
+
+@njit(inline="always")
+def _label_islands(body_count, body_a, body_b, static, link_a, link_b):
+    """Label bodies and contacts by island, bodies joined by their contacts and by links
+    (inlined in each of the two kernels above, so that a scene without joints compiles only
+    ``find_islands``).
 
     Parameters
     ----------

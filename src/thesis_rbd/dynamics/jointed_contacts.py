@@ -114,12 +114,13 @@ def island_joints(ints, body_island, islands):
     return joint_start, joints
 
 
-@njit
+@njit(inline="always")
 def joined_islands(joints, body_island, islands, position, orientation):
     """What ``island_solver.solve_islands`` takes of the joints beside the ``JointSet``'s
     (ints, floats) ``joints`` (None: no joints): the joints of each island
     (``island_joints``; none anywhere without joints) and the poses. Always the same tuple
-    type, so that no kernel takes a value that may be None or not."""
+    type, so that no kernel takes a value that may be None or not; inlined, so that a scene
+    without joints compiles nothing for it."""
     joint_start = np.zeros(islands + 1, np.int64)
     island_joint_list = np.empty(0, np.int64)
     if joints is not None:
