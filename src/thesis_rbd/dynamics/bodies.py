@@ -155,11 +155,6 @@ class BodyArrays:
             self._save_arguments = state + self._saved
             self._restore_arguments = self._saved + state
 
-    def moving_kinematic(self) -> np.ndarray:
-        """(n,) bool: the kinematic bodies with a velocity or an angular velocity."""
-        moving = np.any(self.kinematic_velocity != 0.0, axis=1)
-        return moving | np.any(self.kinematic_angular_velocity != 0.0, axis=1)
-
     def full(self, name: str) -> np.ndarray:
         """The whole capacity-sized array of a field (kernels index only the live rows)."""
         return self._storage[name]

@@ -22,7 +22,25 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.joint_set import BODY_A, BODY_B
 from thesis_rbd.spatial.quaternion import mul, normalize
 
-__all__ = ["joint_partners", "move_kinematic_bodies", "moved_pose", "place_partners"]
+__all__ = [
+    "joint_partners",
+    "move_kinematic_bodies",
+    "moved_pose",
+    "moving_bodies",
+    "place_partners",
+]
+
+
+@njit
+def moving_bodies(count, velocity, angular_velocity):
+    """(count,) bool: the bodies with a kinematic velocity or angular velocity (``velocity``,
+    ``angular_velocity`` (>= n, 3), zero but for kinematic bodies): those the kinematic stage
+    moves this step."""
+    moving = np.zeros(count, np.bool_)
+    for i in range(count):
+        for k in range(3):
+            moving[i] |= velocity[i, k] != 0.0 or angular_velocity[i, k] != 0.0
+    return moving
 
 
 @njit(allocates=False)
@@ -68,8 +86,8 @@ def move_kinematic_bodies(
 
     Parameters
     ----------
-    bodies : (k,) int64
-        The kinematic bodies.
+    bodies : (n,) bool
+        The bodies to move: the moving kinematic ones (``moving_bodies``).
     dt : float
         Step (s).
     velocity, angular_velocity : (>= n, 3) float64
@@ -81,7 +99,9 @@ def move_kinematic_bodies(
     start_position, start_orientation : (>= n, 3), (>= n, 4) float64
         Out (``save_start``): the poses before the move.
     """
-    for i in bodies:
+    for i in range(bodies.shape[0]):
+        if not bodies[i]:
+            continue
         if save_start:
             for k in range(3):
                 start_position[i, k] = position[i, k]

@@ -188,20 +188,21 @@ class SleepState:
         self.wake(hits)
         return True
 
-    def update(self, bodies, contacts, dt, links=None) -> np.ndarray:
+    def update(self, bodies, contacts, dt, links=None, carrying=None) -> np.ndarray:
         """Advance still-times and put still islands to sleep.
 
         Parameters
         ----------
         bodies : BodyArrays
-            After the contact response; a kinematic body with a velocity supports nothing
-            that sleeps.
+            After the contact response.
         contacts : ContactSet
             This step's contacts (they define the islands).
         dt : float
         links : (j, 2) int64, optional
             Body pairs joints hold (-1: the world): they join islands as contacts do, and a
             body jointed to the world rests on it.
+        carrying : (n,) bool, optional
+            The moving kinematic bodies: immovable, yet nothing that sleeps rests on them.
 
         Returns
         -------
@@ -242,7 +243,9 @@ class SleepState:
         # slow at the top of its flight, or drifting in zero gravity, is still but not at rest;
         # one a moving kinematic body carries must go on being carried)
         moving_labels = np.unique(labels[awake & ~candidates])
-        held = (static & ~bodies.moving_kinematic()) | self.asleep
+        held = static | self.asleep
+        if carrying is not None:
+            held &= ~carrying
         on_support = np.concatenate([a[held[b] & ~held[a]], b[held[a] & ~held[b]], to_world])
         sleepy = candidates & ~np.isin(labels, moving_labels) & np.isin(labels, labels[on_support])
         fell = np.flatnonzero(sleepy)

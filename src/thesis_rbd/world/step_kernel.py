@@ -41,7 +41,7 @@ from thesis_rbd.dynamics.contact_stats import BAD_BODY
 from thesis_rbd.dynamics.impacts import may_have_hit
 from thesis_rbd.dynamics.integrators import integrate_bodies
 from thesis_rbd.dynamics.joint_solver import step_jointed_bodies
-from thesis_rbd.dynamics.kinematic import move_kinematic_bodies
+from thesis_rbd.dynamics.kinematic import move_kinematic_bodies, moving_bodies
 from thesis_rbd.dynamics.resting_contact import solve_contacts
 from thesis_rbd.world.stage_names import STAGE_NAMES
 
@@ -68,7 +68,7 @@ FINISHED = -1
 @njit
 def run_steps(
     steps, first, detect_only, time, dt, count, method, planned, gathers,
-    frozen, stationary, awake, any_asleep, still_any, sleep_tolerance2, kinematic_bodies,
+    frozen, awake, any_asleep, still_any, sleep_tolerance2,
     position, orientation, linear_momentum, angular_momentum,
     inverse_mass, inverse_inertia_body, inertia_body, thickness, restitution, friction,
     kinematic_velocity, kinematic_angular_velocity, external_force, drag, pf_start, pf_arm,
@@ -106,19 +106,15 @@ def run_steps(
         Whether applied forces are active (the forces stage is then Python's).
     frozen : (>= n,) bool
         Immovable: static, kinematic or asleep (the dynamics stages move none of them).
-    stationary : (>= n,) bool
-        Does not move this step: frozen, and not a kinematic body with a velocity (the
-        detection stages keep its boxes; two such bodies make no new contact).
     awake, any_asleep, still_any : bool
         Whether any body moves, any sleeps, any awake body has a still-time.
     sleep_tolerance2 : float
         The sleep stage's speed tolerance squared (1/s^2): while every moving body is faster,
         and no body is still or touching, it has nothing to do.
-    kinematic_bodies : (k,) int64
-        The kinematic bodies, which the kinematic stage moves.
     position ... friction, kinematic_velocity, kinematic_angular_velocity
         The body arrays (n rows or more), as ``integrate_bodies``, ``solve_contacts`` and
-        ``move_kinematic_bodies`` take them.
+        ``move_kinematic_bodies`` take them. The frozen bodies with a kinematic velocity
+        move in the kinematic stage, and are not stationary to the detection stages.
     external_force, drag, pf_start, pf_arm, pf_force
         The forces of the step (``AppliedForces.gather``).
     saved_position ... saved_angular_momentum
@@ -191,6 +187,13 @@ def run_steps(
         ) = detection_group  # fmt: skip
     if convex_group is not None:
         hull_of_body, hull_arrays, longest_loop, query_scratch, com_local = convex_group
+    # what the detection stages read as staying put this step: the frozen bodies but the
+    # moving kinematic ones (``frozen`` itself in a scene without kinematic bodies)
+    stationary = frozen
+    moving_kinematic = np.zeros(0, np.bool_)
+    if planned[KINEMATIC]:
+        moving_kinematic = moving_bodies(count, kinematic_velocity, kinematic_angular_velocity)
+        stationary = frozen[:count] & ~moving_kinematic
     if joint_group is not None:
         (
             joint_substeps, joint_ints, joint_floats, joint_start, island_joints, body_start,
@@ -253,7 +256,7 @@ def run_steps(
             # before the joints stage, which places the bodies jointed to them from where
             # this leaves them
             move_kinematic_bodies(
-                kinematic_bodies, dt, kinematic_velocity, kinematic_angular_velocity, position,
+                moving_kinematic, dt, kinematic_velocity, kinematic_angular_velocity, position,
                 orientation, detection_group is not None, start_position, start_orientation,
             )  # fmt: skip
             start = _count_stage(KINEMATIC, start, cycles, calls)

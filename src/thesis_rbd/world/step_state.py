@@ -53,7 +53,8 @@ class StepState:
     stationary : (n,) bool
         Does not move this step (frozen, and not a kinematic body with a velocity): the
         detection stages keep its boxes, and two such bodies make no new contact. The same
-        array as ``frozen`` where no kinematic body moves.
+        array as ``frozen`` in a scene without kinematic bodies; the step kernel derives its
+        own from the kinematic velocities.
     awake, any_asleep : bool
         Whether any body moves; whether any sleeps.
     candidate_count : int

@@ -56,6 +56,7 @@ from thesis_rbd.dynamics.impacts import find_hits, resolve_impacts
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.dynamics.joint_set import JointSet
 from thesis_rbd.dynamics.joint_solver import MOST_SUBSTEPS
+from thesis_rbd.dynamics.kinematic import moving_bodies
 from thesis_rbd.dynamics.pgs import friction_polygon
 from thesis_rbd.dynamics.sleep import SleepSettings, SleepState
 from thesis_rbd.world.joint_api import WorldJoints
@@ -391,7 +392,7 @@ class World(WorldReadout, WorldJoints):
             if angular_velocity is None
             else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
         )
-        was_moving = bool(b.moving_kinematic()[body])
+        was_moving = bool(self._moving_kinematic()[body])
         if x is not None:
             b.position[body] = x
         if q is not None:
@@ -403,7 +404,7 @@ class World(WorldReadout, WorldJoints):
         s = self._state
         s.start_position[body], s.start_orientation[body] = b.position[body], b.orientation[body]
         jumped = x is not None or q is not None
-        started = not was_moving and bool(b.moving_kinematic()[body])
+        started = not was_moving and bool(self._moving_kinematic()[body])
         if jumped or started:
             # the contacts where the body is now, which wake the islands it touches; every
             # fat box refitted around it
@@ -484,7 +485,6 @@ class World(WorldReadout, WorldJoints):
                 "restitution", "friction", "kinematic_velocity", "kinematic_angular_velocity",
             )),
         )  # fmt: skip
-        self._kinematic_bodies = np.flatnonzero(b.kinematic)
         self._saved = b.saved_state()
         # the contact stage solves an island's contacts with its joints held
         contact_joints = (self._joints.ints, self._joints.floats) if jointed else None
@@ -515,6 +515,13 @@ class World(WorldReadout, WorldJoints):
             np.zeros((rows, 4)), self._joint_impulse,
         )  # fmt: skip
 
+    def _moving_kinematic(self) -> np.ndarray:
+        """(n,) bool: the kinematic bodies with a velocity (``kinematic.moving_bodies``)."""
+        b = self.bodies
+        return moving_bodies(
+            b.count, b.full("kinematic_velocity"), b.full("kinematic_angular_velocity")
+        )
+
     def _sleep_fields(self) -> dict:
         """The step state's fields that follow who sleeps and which kinematic bodies move:
         ``frozen`` (n,) bool marks the immovable bodies (static, kinematic or asleep),
@@ -525,7 +532,7 @@ class World(WorldReadout, WorldJoints):
         frozen = b.static | self._sleep.asleep
         stationary = frozen
         if self._planned[KINEMATIC]:
-            stationary = frozen & ~b.moving_kinematic()
+            stationary = frozen & ~self._moving_kinematic()
         return dict(
             frozen=frozen, stationary=stationary, awake=not bool(np.all(stationary)),
             any_asleep=self._sleep.any_asleep,
@@ -588,9 +595,9 @@ class World(WorldReadout, WorldJoints):
             candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
         ) = run_steps(
             steps, first, detect_only, self.time, self.dt, self.bodies.count, self._method,
-            self._planned, len(self.applied_forces) > 0, s.frozen, s.stationary, s.awake,
-            s.any_asleep, self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
-            self._kinematic_bodies, *self._kernel_bodies, s.external_force, self._drag_array,
+            self._planned, len(self.applied_forces) > 0, s.frozen, s.awake, s.any_asleep,
+            self._sleep.still_any, self._sleep.settings.linear_tolerance**2,
+            *self._kernel_bodies, s.external_force, self._drag_array,
             pf.start, pf.arm, pf.force, *self._saved, s.start_position, s.start_orientation,
             s.solved, s.reach_back, self._contact_group, self._joint_group,
             self._detection_group, self._convex_group,
@@ -845,7 +852,9 @@ class World(WorldReadout, WorldJoints):
     def _fall_asleep(self, s: StepState) -> StepState:
         """Islands still for long enough fall asleep with zero velocity."""
         b = self.bodies
-        fell = self._sleep.update(b, s.contacts, self.dt, self._joints.ints[:, 1:3])
+        fell = self._sleep.update(
+            b, s.contacts, self.dt, self._joints.ints[:, 1:3], s.frozen & ~s.stationary
+        )
         if not len(fell):
             return s
         b.linear_momentum[fell] = 0.0
