@@ -75,7 +75,7 @@ def run_steps(
     pf_force,
     saved_position, saved_orientation, saved_linear_momentum, saved_angular_momentum,
     start_position, start_orientation, solved, reach_back,
-    contact_group, joint_group, detection_group, convex_group,
+    contact_group, joint_group, kinematic_group, detection_group, convex_group,
     contacts, acted, warm, cache,
     candidate_count, fast_count, slowest, fat_changed, refit_all, rewound,
     cycles, calls,
@@ -136,6 +136,10 @@ def run_steps(
         (``World._joint_arguments``); None without joints. The integrator then skips the
         bodies ``unintegrated`` (>= n,) bool marks, the frozen and the jointed, which the
         joints stage moves.
+    kinematic_group : tuple or None
+        ``(kinematic_velocity, kinematic_angular_velocity)`` where the scene has kinematic
+        bodies (the arrays above; the kinematic stage moves them); None without, which
+        compiles the stage out.
     detection_group : tuple or None
         ``(size, horizon, fat, fast, fat_pairs, pair_members, box_offset, box_half,
         speculative, reach, tight, candidates)`` of the detection stages
@@ -191,7 +195,7 @@ def run_steps(
     # moving kinematic ones (``frozen`` itself in a scene without kinematic bodies)
     stationary = frozen
     moving_kinematic = np.zeros(0, np.bool_)
-    if planned[KINEMATIC]:
+    if kinematic_group is not None:
         moving_kinematic = moving_bodies(count, kinematic_velocity, kinematic_angular_velocity)
         stationary = frozen[:count] & ~moving_kinematic
     if joint_group is not None:
@@ -252,7 +256,7 @@ def run_steps(
             if bad >= 0:
                 stop = INTEGRATE
                 break
-        if stage <= KINEMATIC and planned[KINEMATIC] and awake:
+        if stage <= KINEMATIC and kinematic_group is not None and awake:
             # before the joints stage, which places the bodies jointed to them from where
             # this leaves them
             move_kinematic_bodies(

@@ -494,6 +494,12 @@ class World(WorldReadout, WorldJoints):
             if responds else None
         )  # fmt: skip
         self._joint_group = self._joint_arguments() if jointed else None
+        # the kinematic stage's velocities: None compiles the stage out of a scene without
+        # kinematic bodies
+        self._kinematic_group = (
+            (full("kinematic_velocity"), full("kinematic_angular_velocity"))
+            if planned["kinematic"] else None
+        )  # fmt: skip
         detector = self._collision
         self._detection_group = detector.detection_arguments(self.dt, fast) if collides else None
         self._convex_group = detector.convex_arguments() if collides else None
@@ -600,7 +606,7 @@ class World(WorldReadout, WorldJoints):
             *self._kernel_bodies, s.external_force, self._drag_array,
             pf.start, pf.arm, pf.force, *self._saved, s.start_position, s.start_orientation,
             s.solved, s.reach_back, self._contact_group, self._joint_group,
-            self._detection_group, self._convex_group,
+            self._kinematic_group, self._detection_group, self._convex_group,
             *handed_in,
             s.candidate_count, s.fast_count, s.slowest, s.fat_changed, s.refit_all, s.rewound,
             cycles, calls,
