@@ -526,11 +526,13 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
     name = _optional(table, "name", f"body{index}", _as_string, where)
     where = _Context(source, _body_where(index, name))
     _check_keys(table, _BODY_KEYS, where)
-    if ("shape" in table) == ("shapes" in table):
+    if "shape" not in table and "shapes" not in table:
         where.fail(
-            "give a 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] }, or "
-            "'shapes' (parts at poses), exactly one of them"
+            "missing the 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] } "
+            "(or 'shapes', a compound's parts at their poses)"
         )
+    if "shape" in table and "shapes" in table:
+        where.fail("give a 'shape' table or a compound's 'shapes', not both")
     static = _optional(table, "static", False, _as_bool, where)
     kinematic = _optional(table, "kinematic", False, _as_bool, where)
     mass = _optional(table, "mass", None, _positive_number, where)
