@@ -36,6 +36,22 @@ and one ``[[joint]]`` table per joint with the arguments of
     motor = { velocity = 1.0, max_force = 20.0 }
     friction = 0.5
 
+A body may give its mass properties explicitly, ``mass``, ``center_of_mass = [x, y, z]`` (in
+the mesh frame) and ``inertia = [[Ixx, Ixy, Ixz], [Ixy, Iyy, Iyz], [Ixz, Iyz, Izz]]`` (about the
+centre of mass, mesh axes), its shape then collision geometry only; and instead of ``shape``
+it may be a compound of parts, each a shape at a pose (position, orientation) in the body's
+mesh frame, as ``shapes = [{ shape = {...}, position = [...], orientation = [...] }, ...]``
+(each inline table on one line, as TOML has them) or as ``[[body.shapes]]`` tables::
+
+    [[body.shapes]]
+    shape = { type = "box", extents = [0.5, 2.0, 3.0] }
+    position = [-0.25, 0.0, 0.0]
+
+    [[body.shapes]]
+    shape = { type = "icosphere", radius = 0.5 }
+    position = [0.75, 0.0, 0.0]
+    orientation = [0.0, 0.0, 0.0, 1.0]
+
 A distance joint takes ``anchor_b``, ``limits = [0.0, 1.2]`` (a rope) and
 ``spring = { stiffness = 100.0, damping = 2.0, rest_length = 1.0 }``.
 
@@ -64,9 +80,11 @@ from typing import NoReturn
 
 import numpy as np
 
+from thesis_rbd.dynamics.body_builder import body_shape
 from thesis_rbd.dynamics.integrators import INTEGRATORS
 from thesis_rbd.geometry import shapes
 from thesis_rbd.geometry.mesh import TriangleMesh, load_mesh
+from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.world import World
 
 __all__ = [
@@ -115,9 +133,10 @@ class BodySpec:
     name : str
         Unique label.
     shape : Mapping
-        The shape table as written (type and parameters), for display.
+        The shape table as written (type and parameters), for display; a compound's is
+        ``{"type": "compound", "parts": k}``.
     mesh : TriangleMesh
-        The shape, in its mesh frame.
+        The shape, in its mesh frame (a compound's parts merged).
     mass, density : float or None
         At most one is set; neither means density 1.
     position : (3,) float ndarray
@@ -137,6 +156,12 @@ class BodySpec:
     kinematic : bool
         A body moved at its ``linear_velocity`` and ``angular_velocity`` that contacts and
         joints push against (:meth:`World.add_body`).
+    shapes : tuple of (TriangleMesh, (4, 4) float ndarray) or None
+        A compound's parts, each with its pose in the body's mesh frame; None: one ``mesh``.
+    center_of_mass : (3,) float ndarray or None
+        Explicit centre of mass in the mesh frame, with ``mass`` and ``inertia``.
+    inertia : (3, 3) float ndarray or None
+        Explicit inertia tensor about the centre of mass, mesh axes.
     """
 
     name: str
@@ -155,6 +180,9 @@ class BodySpec:
     collision_group: int = 1
     collision_mask: int = 0xFFFF
     kinematic: bool = False
+    shapes: tuple | None = None
+    center_of_mass: np.ndarray | None = None
+    inertia: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -250,7 +278,10 @@ class Scene:
             where = _body_where(index, body.name)
             try:
                 handle = world.add_body(
-                    body.mesh,
+                    body.mesh if body.shapes is None else None,
+                    shapes=body.shapes,
+                    center_of_mass=body.center_of_mass,
+                    inertia=body.inertia,
                     mass=body.mass,
                     density=body.density,
                     position=body.position,
@@ -479,6 +510,9 @@ _BODY_KEYS = (
     "collision_group",
     "collision_mask",
     "force",
+    "center_of_mass",
+    "inertia",
+    "shapes",
 )
 
 
@@ -492,22 +526,40 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
     name = _optional(table, "name", f"body{index}", _as_string, where)
     where = _Context(source, _body_where(index, name))
     _check_keys(table, _BODY_KEYS, where)
-    if "shape" not in table:
+    if "shape" not in table and "shapes" not in table:
         where.fail(
-            "missing the 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] }"
+            "missing the 'shape' table, e.g. shape = { type = \"box\", extents = [1, 1, 1] } "
+            "(or 'shapes', a compound's parts at their poses)"
         )
+    if "shape" in table and "shapes" in table:
+        where.fail("give a 'shape' table or a compound's 'shapes', not both")
     static = _optional(table, "static", False, _as_bool, where)
     kinematic = _optional(table, "kinematic", False, _as_bool, where)
     mass = _optional(table, "mass", None, _positive_number, where)
     density = _optional(table, "density", None, _positive_number, where)
     if mass is not None and density is not None:
         where.fail("give 'mass' or 'density', not both")
-    shape_table = _as_table(table["shape"], where, "shape")
-    mesh = _parse_shape(shape_table, where.field("shape"), folder)
-    if not (static or kinematic) and not (mesh.is_closed and mesh.is_consistently_oriented):
+    center_of_mass = _optional(table, "center_of_mass", None, _vector3, where)
+    inertia = _optional(table, "inertia", None, _matrix3, where)
+    explicit = center_of_mass is not None or inertia is not None
+    parts = None
+    if "shapes" in table:
+        parts = _parse_parts(table["shapes"], where.field("shapes"), folder)
+        shape_table = {"type": "compound", "parts": len(parts)}
+        try:
+            mesh, _ = body_shape(None, parts)
+        except ValueError as exc:
+            where.field("shapes").fail(str(exc))
+    else:
+        shape_table = _as_table(table["shape"], where, "shape")
+        mesh = _parse_shape(shape_table, where.field("shape"), folder)
+    if not (parts is not None or static or kinematic or explicit) and not (
+        mesh.is_closed and mesh.is_consistently_oriented
+    ):
         where.field("shape").fail(
             "the mesh is not a closed, consistently oriented surface, so it has no volume "
-            "and cannot be a dynamic body; set static = true or repair the mesh"
+            "and cannot be a dynamic body; set static = true, give mass, center_of_mass and "
+            "inertia, or repair the mesh"
         )
     orientation = np.asarray(_optional(table, "orientation", (0, 0, 0, 1), _quaternion, where))
     restitution = _optional(table, "restitution", 0.0, _number, where)
@@ -539,7 +591,33 @@ def _parse_body(table, index: int, source: str, folder: Path) -> BodySpec:
         collision_group=_optional(table, "collision_group", 1, _integer, where),
         collision_mask=_optional(table, "collision_mask", 0xFFFF, _integer, where),
         kinematic=kinematic,
+        shapes=parts,
+        center_of_mass=None if center_of_mass is None else np.asarray(center_of_mass),
+        inertia=None if inertia is None else np.asarray(inertia),
     )
+
+
+_PART_KEYS = ("shape", "position", "orientation")
+
+
+def _parse_parts(value, where: _Context, folder: Path) -> tuple:
+    """A compound's ``shapes`` array: each part's mesh and its (4, 4) pose."""
+    if not isinstance(value, list) or not value:
+        where.fail(f"must be a non-empty array of part tables, got {_describe(value)}")
+    parts = []
+    for k, part in enumerate(value):
+        here = where.field(str(k))
+        part = _as_table(part, here, None)
+        _check_keys(part, _PART_KEYS, here)
+        if "shape" not in part:
+            here.fail("missing the 'shape' table of this part")
+        mesh = _parse_shape(_as_table(part["shape"], here, "shape"), here.field("shape"), folder)
+        pose = transform_from_pose(
+            _optional(part, "position", (0, 0, 0), _vector3, here),
+            _optional(part, "orientation", (0, 0, 0, 1), _quaternion, here),
+        )
+        parts.append((mesh, pose))
+    return tuple(parts)
 
 
 _JOINT_KEYS = (
@@ -832,6 +910,12 @@ def _vector(value, length: int, where: _Context) -> list[float]:
 
 def _vector3(value, where: _Context) -> list[float]:
     return _vector(value, 3, where)
+
+
+def _matrix3(value, where: _Context) -> list[list[float]]:
+    if not isinstance(value, list) or len(value) != 3:
+        where.fail(f"must be an array of 3 rows of 3 numbers, got {_describe(value)}")
+    return [_vector3(row, where) for row in value]
 
 
 def _quaternion(value, where: _Context) -> list[float]:

@@ -102,14 +102,17 @@ class CollisionPipeline:
         self._mask = np.zeros(0, np.int64)
         self._excluded_keys = np.zeros(0, np.int64)
 
-    def add_body(self, mesh, center_of_mass_local) -> None:
+    def add_body(self, mesh, center_of_mass_local, convex: bool = True) -> None:
         """Register the next body's mesh (its tree is shared with bodies of the same mesh).
 
-        ``center_of_mass_local`` (3,) is the body's centre of mass in the mesh frame.
+        ``center_of_mass_local`` (3,) is the body's centre of mass in the mesh frame;
+        ``convex`` False keeps the body off the convex path whatever its mesh (a compound's
+        merged parts, whose hull would fill the space between them).
         """
         g = self.geometry.geometry_of(mesh)
         self.geometry_of_body = np.append(self.geometry_of_body, g)
-        hull = self.hulls.hull_of(mesh) if self.narrow_phase_kind == "auto" else -1
+        convex = convex and self.narrow_phase_kind == "auto"
+        hull = self.hulls.hull_of(mesh) if convex else -1
         self.hull_of_body = np.append(self.hull_of_body, hull)
         self._hull_arrays = self.hulls.arrays()
         self._query_scratch = query_scratch_for(self.hulls)

@@ -43,7 +43,7 @@ from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_qu
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline, some_pair_may_collide
 from thesis_rbd.dynamics.bodies import BodyArrays
-from thesis_rbd.dynamics.body_builder import body_fields
+from thesis_rbd.dynamics.body_builder import body_fields, body_shape
 from thesis_rbd.dynamics.contact_settings import SLOP_FRACTION, ContactSettings
 from thesis_rbd.dynamics.contact_stats import BAD_BODY, ISLANDS, STATS
 from thesis_rbd.dynamics.forces import (
@@ -248,7 +248,7 @@ class World(WorldReadout, WorldJoints):
     # ------------------------------------------------------------------ building the scene
     def add_body(
         self,
-        mesh,
+        mesh=None,
         mass: float | None = None,
         density: float | None = None,
         position=(0.0, 0.0, 0.0),
@@ -263,16 +263,20 @@ class World(WorldReadout, WorldJoints):
         collision_group: int = 1,
         collision_mask: int = 0xFFFF,
         kinematic: bool = False,
+        center_of_mass=None,
+        inertia=None,
+        shapes=None,
     ) -> int:
         """Add a body and return its index.
 
         Parameters
         ----------
-        mesh : TriangleMesh
-            Shape in its own (mesh) frame; closed for a dynamic body.
+        mesh : TriangleMesh, optional
+            Shape in its own (mesh) frame; closed for a dynamic body unless its mass
+            properties are given. Give it or ``shapes``.
         mass, density : float, optional
             Give at most one; neither means density 1.0. Ignored for static bodies; a
-            kinematic body takes neither.
+            kinematic body takes neither. With ``center_of_mass`` and ``inertia``, the mass.
         position : (3,) array_like
             World position of the centre of mass (of the mesh frame origin for a static
             body whose mesh is open).
@@ -303,15 +307,31 @@ class World(WorldReadout, WorldJoints):
             about its centre of mass), and the bodies it touches or is jointed to see that
             motion. Two kinematic bodies, or a kinematic and a static one, never collide.
             ``set_kinematic`` moves it or changes its velocity between steps.
+        center_of_mass : (3,) array_like, optional
+            Explicit centre of mass in the mesh frame, given with ``mass`` and ``inertia``
+            (a dynamic body only): the body takes these instead of its mesh's, which is then
+            collision geometry only and may be open or in pieces.
+        inertia : (3, 3) array_like, optional
+            Explicit inertia tensor about ``center_of_mass``, axes parallel to the mesh
+            frame: symmetric (to round-off), positive definite, its principal moments within
+            the triangle inequality (to a millionth of the largest).
+        shapes : sequence of (TriangleMesh, (4, 4) array_like), optional
+            A compound body instead of ``mesh``: each part's mesh placed in the body's mesh
+            frame by its rigid transform. Without explicit mass properties every part must be
+            closed, and the body is their union (overlaps counted twice) at the density or
+            scaled to the mass. A compound of several parts collides through the OBBTree of
+            the parts merged into one mesh, never as one convex hull.
         """
+        mesh, parts = body_shape(mesh, shapes)
         fields = body_fields(
             mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
             restitution, friction, static, collidable, collision_group, collision_mask, kinematic,
+            parts, center_of_mass, inertia,
         )  # fmt: skip
         index = self.bodies.append(
             mesh, name if name is not None else f"body{self.bodies.count}", **fields
         )
-        self._collision.add_body(mesh, fields["center_of_mass_local"])
+        self._collision.add_body(mesh, fields["center_of_mass_local"], convex=len(parts) == 1)
         self._sleep.resize(self.bodies.count)
         self._plan_stages()
         return index
