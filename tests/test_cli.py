@@ -389,7 +389,8 @@ def test_console_script_reports_a_bad_scene_in_one_line(tmp_path, thesis_rbd_com
     assert result.stderr.strip() == (
         "thesis-rbd: error: bad.toml: body[0] 'body0': unknown key 'spin'; allowed: name, shape, "
         "mass, density, position, orientation, linear_velocity, angular_velocity, restitution, "
-        "friction, static, kinematic, collision_group, collision_mask, force"
+        "friction, static, kinematic, collision_group, collision_mask, force, center_of_mass, "
+        "inertia, shapes"
     )
     assert files_in(tmp_path) == ["bad.toml"]
 

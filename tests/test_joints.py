@@ -17,7 +17,7 @@ from scipy.special import ellipk
 
 import thesis_rbd as rbd
 from thesis_rbd.collision.pipeline import some_pair_may_collide
-from thesis_rbd.dynamics.joint_rows import joint_rows
+from thesis_rbd.dynamics.joint_rows import equality_row_count, joint_rows
 from thesis_rbd.dynamics.joint_set import JOINT_KINDS
 from thesis_rbd.dynamics.joint_tree import (
     elimination_order,
@@ -343,6 +343,11 @@ def test_row_jacobians_match_finite_differences(kind, data):
         return (Rotation.from_rotvec(v) * Rotation.from_quat(q)).as_quat()
 
     eps = 1e-6
+    # a limit row's error has a kink at its limit: rows within a step's reach of one have no
+    # derivative there to compare
+    smooth = np.ones(n, bool)
+    held = equality_row_count(code, f)
+    smooth[held:] = np.abs(errors(xa, qa, xb, qb)[held:]) > 10 * eps
     for k in range(3):
         e = np.zeros(3)
         e[k] = eps
@@ -354,14 +359,15 @@ def test_row_jacobians_match_finite_differences(kind, data):
             2 * eps
         )
         d_tb = (errors(xa, qa, xb, turned(qb, e)) - errors(xa, qa, xb, turned(qb, -e))) / (2 * eps)
-        np.testing.assert_allclose(rows[:n, k], d_xa, atol=1e-6)
-        np.testing.assert_allclose(-rows[:n, k], d_xb, atol=1e-6)
+        written = rows[:n][smooth]
+        np.testing.assert_allclose(written[:, k], d_xa[smooth], atol=1e-6)
+        np.testing.assert_allclose(-written[:, k], d_xb[smooth], atol=1e-6)
         if kind in ("fixed", "prismatic"):
             # the orientation rows' Jacobian is the identity at zero error; away from it the
             # Newton step only needs it close (the error is a rotation vector)
             continue
-        np.testing.assert_allclose(rows[:n, 3 + k], d_ta, atol=1e-6)
-        np.testing.assert_allclose(rows[:n, 6 + k], d_tb, atol=1e-6)
+        np.testing.assert_allclose(written[:, 3 + k], d_ta[smooth], atol=1e-6)
+        np.testing.assert_allclose(written[:, 6 + k], d_tb[smooth], atol=1e-6)
 
 
 @settings(max_examples=30)
