@@ -5,6 +5,7 @@ against its closed form, a servo-held arm against its targets, and bad files ref
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -50,9 +51,15 @@ def _urdf_inertials(path: Path) -> dict[str, tuple[float, np.ndarray, np.ndarray
     return out
 
 
-def _pybullet_joints(path: Path) -> list[tuple[str, bool]]:
-    """(name, movable) of every joint, as pybullet's getJointInfo reads the file."""
+def _pybullet_joints(path: Path) -> list[tuple[str, str]]:
+    """(name, kind) of every joint as pybullet's getJointInfo reads the file, its kind in
+    our names (pybullet reads a continuous joint as revolute, as load_urdf does)."""
     pybullet = pytest.importorskip("pybullet")
+    kinds = {
+        pybullet.JOINT_REVOLUTE: "revolute",
+        pybullet.JOINT_PRISMATIC: "prismatic",
+        pybullet.JOINT_FIXED: "fixed",
+    }
     client = pybullet.connect(pybullet.DIRECT)
     try:
         robot = pybullet.loadURDF(str(path), physicsClientId=client)
@@ -62,7 +69,7 @@ def _pybullet_joints(path: Path) -> list[tuple[str, bool]]:
         ]
     finally:
         pybullet.disconnect(client)
-    return [(info[1].decode(), info[2] != pybullet.JOINT_FIXED) for info in infos]
+    return [(info[1].decode(), kinds[info[2]]) for info in infos]
 
 
 @pytest.mark.parametrize(
@@ -100,11 +107,13 @@ def test_joints_are_pybullets(name):
     theirs = _pybullet_joints(path)
     world = rbd.World()
     robot = rbd.load_urdf(world, path, fixed_base=True, merge_fixed_links=False)
-    assert robot.joint_names == [n for n, movable in theirs if movable]
-    # every URDF joint is a world joint when nothing is merged, and the base weld none here
-    # (the iiwa's and r2d2's roots carry mass 0 and 10: r2d2's is welded by a joint)
-    ours = world.joints["name"]
-    assert [n for n in ours if n != "fixed_base"] == [n for n, _ in theirs]
+    assert robot.joint_names == [n for n, kind in theirs if kind != "fixed"]
+    # nothing merged, every URDF joint is a world joint, in the file's order as pybullet's
+    # (r2d2's root, of mass 10, is also welded to the world by "fixed_base"; the iiwa's, of
+    # mass 0, is a static body)
+    joints = world.joints
+    ours = [(n, str(k)) for n, k in zip(joints["name"], joints["kind"], strict=True)]
+    assert [j for j in ours if j[0] != "fixed_base"] == theirs
 
 
 PENDULUM = """<?xml version="1.0"?>
@@ -207,6 +216,11 @@ GOOD = {
             {"arm_inertial": GOOD["arm_inertial"].replace('izz="1"', 'izz="-1"')},
             "link 'arm': inertia is not positive definite",
         ),
+        (
+            {"arm_inertial": GOOD["arm_inertial"].replace('izz="1"', 'izz="3"')},
+            "link 'arm': inertia violates the triangle inequality",
+        ),
+        ({"arm_geometry": '<capsule radius="0.05" length="0.3"/>'}, "Unknown tag: capsule"),
         ({"axis": "0 0 0"}, "joint 'elbow': axis"),
         ({"mimic": '<mimic joint="other"/>'}, "joint 'elbow' mimics 'other'"),
     ],
@@ -215,7 +229,7 @@ def test_bad_files_are_refused_and_leave_nothing(tmp_path, change, message):
     path = tmp_path / "bad.urdf"
     path.write_text(TWO_LINKS.format(**{**GOOD, **change}))
     world = rbd.World()
-    with pytest.raises(ValueError, match=message.replace("(", r"\(")):
+    with pytest.raises(ValueError, match=re.escape(message)):
         rbd.load_urdf(world, path)
     assert len(world) == 0 and len(world.joints["name"]) == 0
 
@@ -261,3 +275,51 @@ def test_a_planar_joint_is_a_generic_joint_turning_about_the_urdf_axis(tmp_path)
     assert robot.joint_positions()[0] == pytest.approx(0.05, rel=1e-6)
     with pytest.raises(ValueError, match="planar joints"):
         robot.set_joint_targets([0.0])
+
+
+CHAIN = """<?xml version="1.0"?>
+<robot name="chain">
+  <link name="a">{body}</link>
+  <link name="b">{body}</link>
+  <link name="c">{body}</link>
+  <joint name="ab" type="floating">
+    <parent link="a"/><child link="b"/><origin xyz="0 0 0.15"/>
+  </joint>
+  <joint name="bc" type="floating">
+    <parent link="b"/><child link="c"/><origin xyz="0 0 -0.3"/>
+  </joint>
+</robot>
+"""
+CUBE = (
+    '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" '
+    'izz="0.01"/></inertial><collision><geometry><box size="0.2 0.2 0.2"/></geometry>'
+    "</collision>"
+)
+
+
+@pytest.mark.parametrize(("self_collision", "touching"), [(False, set()), (True, {("a", "c")})])
+def test_links_collide_only_with_self_collision_and_never_parent_with_child(
+    tmp_path, self_collision, touching
+):
+    # floating joints hold nothing, so only the exclusions keep the overlapping cubes apart:
+    # b overlaps a and c (its parent and child), c overlaps a (not a neighbour)
+    path = tmp_path / "chain.urdf"
+    path.write_text(CHAIN.format(body=CUBE))
+    world = rbd.World(dt=1 / 240)
+    robot = rbd.load_urdf(world, path, self_collision=self_collision)
+    assert robot.joints == [] and len(world.joints["name"]) == 0
+    world.step()
+    names = {v: k for k, v in robot.bodies.items()}
+    contacts = world.contacts
+    pairs = {
+        tuple(sorted((names[a], names[b])))
+        for a, b in zip(contacts["body_a"], contacts["body_b"], strict=True)
+    }
+    assert pairs == touching
+
+
+def test_a_massless_root_needs_a_fixed_base():
+    world = rbd.World()
+    with pytest.raises(ValueError, match=r"lbr_iiwa_link_0.*loads with fixed_base=True"):
+        rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"))
+    assert len(world) == 0
