@@ -1,0 +1,325 @@
+"""load_urdf against the files it reads: link mass properties against the URDF numbers (read
+here with xml.etree), joints against pybullet's reading of the same file, a pendulum's period
+against its closed form, a servo-held arm against its targets, and bad files refused."""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import thesis_rbd as rbd
+
+pytest.importorskip("yourdfpy", reason="load_urdf parses through yourdfpy")
+
+
+def _data(name: str) -> Path:
+    pybullet_data = pytest.importorskip("pybullet_data", reason="the models ship with it")
+    return Path(pybullet_data.getDataPath()) / name
+
+
+def _rpy_matrix(rpy) -> np.ndarray:
+    """URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z."""
+    r, p, y = rpy
+    Rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
+    Ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
+    Rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+def _urdf_inertials(path: Path) -> dict[str, tuple[float, np.ndarray, np.ndarray]]:
+    """Each link's mass, centre of mass (3,) and inertia (3, 3) in its link frame, read with
+    xml.etree: the oracle, independent of yourdfpy."""
+    out = {}
+    for link in ET.parse(path).getroot().iter("link"):
+        inertial = link.find("inertial")
+        origin = inertial.find("origin")
+        xyz = np.zeros(3) if origin is None else np.fromstring(origin.get("xyz", "0 0 0"), sep=" ")
+        rpy = np.zeros(3) if origin is None else np.fromstring(origin.get("rpy", "0 0 0"), sep=" ")
+        a = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}
+        tensor = np.array([
+            [a["ixx"], a["ixy"], a["ixz"]],
+            [a["ixy"], a["iyy"], a["iyz"]],
+            [a["ixz"], a["iyz"], a["izz"]],
+        ])  # fmt: skip
+        R = _rpy_matrix(rpy)
+        out[link.get("name")] = (float(inertial.find("mass").get("value")), xyz, R @ tensor @ R.T)
+    return out
+
+
+def _pybullet_joints(path: Path) -> list[tuple[str, str]]:
+    """(name, kind) of every joint as pybullet's getJointInfo reads the file, its kind in
+    our names (pybullet reads a continuous joint as revolute, as load_urdf does)."""
+    pybullet = pytest.importorskip("pybullet")
+    kinds = {
+        pybullet.JOINT_REVOLUTE: "revolute",
+        pybullet.JOINT_PRISMATIC: "prismatic",
+        pybullet.JOINT_FIXED: "fixed",
+    }
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        robot = pybullet.loadURDF(str(path), physicsClientId=client)
+        infos = [
+            pybullet.getJointInfo(robot, j, physicsClientId=client)
+            for j in range(pybullet.getNumJoints(robot, physicsClientId=client))
+        ]
+    finally:
+        pybullet.disconnect(client)
+    return [(info[1].decode(), kinds[info[2]]) for info in infos]
+
+
+@pytest.mark.parametrize(
+    ("name", "fixed_base"), [("kuka_iiwa/model.urdf", True), ("r2d2.urdf", False)]
+)
+def test_link_mass_properties_are_the_files(name, fixed_base):
+    path = _data(name)
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path, fixed_base=fixed_base, merge_fixed_links=False)
+    b = world.bodies
+    for link, (mass, center, inertia) in _urdf_inertials(path).items():
+        body = robot.bodies[link]
+        if mass == 0.0:  # the iiwa's base: a static body under a fixed base
+            assert b.static[body]
+            continue
+        assert b.mass[body] == pytest.approx(mass, rel=1e-12)
+        np.testing.assert_allclose(b.center_of_mass_local[body], center, atol=1e-12)
+        np.testing.assert_allclose(b.inertia_body[body], inertia, rtol=1e-12, atol=1e-15)
+
+
+def test_merged_links_sum_their_mass():
+    path = _data("r2d2.urdf")
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path)
+    inertials = _urdf_inertials(path)
+    base = robot.bodies["base_link"]
+    welded = [link for link, body in robot.bodies.items() if body == base]
+    assert sorted(welded) == ["base_link", "left_base", "left_leg", "right_base", "right_leg"]
+    assert world.bodies.mass[base] == pytest.approx(sum(inertials[k][0] for k in welded))
+
+
+@pytest.mark.parametrize("name", ["kuka_iiwa/model.urdf", "r2d2.urdf"])
+def test_joints_are_pybullets(name):
+    path = _data(name)
+    theirs = _pybullet_joints(path)
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path, fixed_base=True, merge_fixed_links=False)
+    assert robot.joint_names == [n for n, kind in theirs if kind != "fixed"]
+    # nothing merged, every URDF joint is a world joint, in the file's order as pybullet's
+    # (r2d2's root, of mass 10, is also welded to the world by "fixed_base"; the iiwa's, of
+    # mass 0, is a static body)
+    joints = world.joints
+    ours = [(n, str(k)) for n, k in zip(joints["name"], joints["kind"], strict=True)]
+    assert [j for j in ours if j[0] != "fixed_base"] == theirs
+
+
+PENDULUM = """<?xml version="1.0"?>
+<robot name="pendulum">
+  <link name="base"/>
+  <link name="bob">
+    <inertial>
+      <origin xyz="0 0 -{l}" rpy="0.3 0.2 0.1"/>
+      <mass value="{m}"/>
+      <inertia ixx="{i}" ixy="0" ixz="0" iyy="{i}" iyz="0" izz="{i}"/>
+    </inertial>
+    <collision><origin xyz="0 0 -{l}"/><geometry><sphere radius="0.05"/></geometry></collision>
+    <collision>
+      <origin xyz="0 0 -{half}"/><geometry><cylinder radius="0.01" length="{l}"/></geometry>
+    </collision>
+  </link>
+  <joint name="pivot" type="revolute">
+    <parent link="base"/><child link="bob"/>
+    <origin xyz="0 0 2"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="5"/>
+  </joint>
+</robot>
+"""
+
+
+def test_pendulum_period(tmp_path):
+    m, length, i, g = 2.0, 0.8, 0.01, 9.81
+    path = tmp_path / "pendulum.urdf"
+    path.write_text(PENDULUM.format(m=m, l=length, half=length / 2, i=i))
+    dt = 1e-3
+    world = rbd.World(dt=dt, gravity=(0, 0, -g))
+    # the whole model tilted 0.05 rad about the hinge: the bob swings 0.05 rad either side of
+    # hanging, where the joint reads -0.05 (the period grows by a^2 / 16, 1.6e-4, at that size)
+    tilt = 0.05
+    robot = rbd.load_urdf(
+        world,
+        path,
+        fixed_base=True,
+        base_orientation=(0, math.sin(tilt / 2), 0, math.cos(tilt / 2)),
+    )
+    assert world.bodies.static[robot.bodies["base"]]  # massless under a fixed base
+    angles = []
+    for _ in range(4000):
+        world.step()
+        angles.append(robot.joint_positions()[0])
+    swing = np.array(angles) + tilt
+    down = np.flatnonzero((swing[:-1] > 0) & (swing[1:] <= 0))
+    crossings = (down + 1 + swing[down] / (swing[down] - swing[down + 1])) * dt
+    period = np.diff(crossings).mean()
+    expected = 2 * math.pi * math.sqrt((i + m * length**2) / (m * g * length))
+    print(f"pendulum period {period:.6f} s, closed form {expected:.6f} s")
+    assert abs(period / expected - 1) < 5e-3
+
+
+def test_servo_targets_hold_the_iiwa():
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"), fixed_base=True)
+    target = np.zeros(len(robot.joints))
+    robot.set_joint_targets(target)
+    world.step(240)
+    error = np.abs(robot.joint_positions() - target).max()
+    print(f"iiwa servo hold: largest joint error {error:.3g} rad after 1 s")
+    assert error < 1e-3
+
+
+TWO_LINKS = """<?xml version="1.0"?>
+<robot name="bad">
+  <link name="base">
+    <inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
+    <collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision>
+  </link>
+  <link name="arm">
+    {arm_inertial}
+    <collision><geometry>{arm_geometry}</geometry></collision>
+  </link>
+  <joint name="elbow" type="revolute">
+    <parent link="base"/><child link="arm"/><origin xyz="0 0 0.2"/>
+    <axis xyz="{axis}"/>{mimic}
+    <limit lower="-1" upper="1" effort="5" velocity="1"/>
+  </joint>
+</robot>
+"""
+GOOD = {
+    "arm_inertial": '<inertial><mass value="1"/>'
+    '<inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>',
+    "arm_geometry": '<box size="0.1 0.1 0.3"/>',
+    "axis": "0 0 1",
+    "mimic": "",
+}
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"arm_geometry": '<mesh filename="nowhere.stl"/>'}, "link 'arm': collision mesh"),
+        ({"arm_inertial": ""}, "link 'arm' moves but has no mass"),
+        ({"arm_inertial": GOOD["arm_inertial"].replace('"1"/>', '"-2"/>', 1)}, "link 'arm': mass"),
+        (
+            {"arm_inertial": GOOD["arm_inertial"].replace('izz="1"', 'izz="-1"')},
+            "link 'arm': inertia is not positive definite",
+        ),
+        (
+            {"arm_inertial": GOOD["arm_inertial"].replace('izz="1"', 'izz="3"')},
+            "link 'arm': inertia violates the triangle inequality",
+        ),
+        ({"arm_geometry": '<capsule radius="0.05" length="0.3"/>'}, "Unknown tag: capsule"),
+        ({"axis": "0 0 0"}, "joint 'elbow': axis"),
+        ({"mimic": '<mimic joint="other"/>'}, "joint 'elbow' mimics 'other'"),
+    ],
+)
+def test_bad_files_are_refused_and_leave_nothing(tmp_path, change, message):
+    path = tmp_path / "bad.urdf"
+    path.write_text(TWO_LINKS.format(**{**GOOD, **change}))
+    world = rbd.World()
+    with pytest.raises(ValueError, match=re.escape(message)):
+        rbd.load_urdf(world, path)
+    assert len(world) == 0 and len(world.joints["name"]) == 0
+
+
+def test_the_good_two_link_file_loads(tmp_path):
+    path = tmp_path / "good.urdf"
+    path.write_text(TWO_LINKS.format(**GOOD))
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path)
+    assert robot.joint_names == ["elbow"] and len(world) == 2
+
+
+def test_without_yourdfpy_the_error_says_what_to_install(tmp_path, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "yourdfpy", None)
+    with pytest.raises(ImportError, match=r"pip install thesis_rbd\[urdf\]"):
+        rbd.load_urdf(rbd.World(), tmp_path / "any.urdf")
+
+
+def test_a_cylinder_lies_along_its_link_z_axis(tmp_path):
+    path = tmp_path / "cylinder.urdf"
+    path.write_text(
+        TWO_LINKS.format(**{**GOOD, "arm_geometry": '<cylinder radius="0.05" length="0.6"/>'})
+    )
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path)
+    # the body's mesh is in the arm's link frame: URDF's cylinder axis is that frame's z
+    extents = np.ptp(world.bodies.meshes[robot.bodies["arm"]].vertices, axis=0)
+    np.testing.assert_allclose(extents, (0.1, 0.1, 0.6), atol=1e-12)
+
+
+def test_a_planar_joint_is_a_generic_joint_turning_about_the_urdf_axis(tmp_path):
+    path = tmp_path / "planar.urdf"
+    planar = TWO_LINKS.format(**GOOD).replace('type="revolute"', 'type="planar"')
+    path.write_text(planar.replace('<axis xyz="0 0 1"/>', '<axis xyz="1 0 0"/>'))
+    world = rbd.World(dt=1 / 240)
+    robot = rbd.load_urdf(world, path, fixed_base=True)
+    assert world.joints["kind"][robot.joints].tolist() == ["generic"]
+    arm = robot.bodies["arm"]
+    # a spin about the URDF axis (world x here) is the joint's in-plane turn
+    world.bodies.angular_momentum[arm] = world.bodies.inertia_body[arm] @ (0.5, 0.0, 0.0)
+    world.step(24)
+    assert robot.joint_velocities()[0] == pytest.approx(0.5, rel=1e-6)
+    assert robot.joint_positions()[0] == pytest.approx(0.05, rel=1e-6)
+    with pytest.raises(ValueError, match="planar joints"):
+        robot.set_joint_targets([0.0])
+
+
+CHAIN = """<?xml version="1.0"?>
+<robot name="chain">
+  <link name="a">{body}</link>
+  <link name="b">{body}</link>
+  <link name="c">{body}</link>
+  <joint name="ab" type="floating">
+    <parent link="a"/><child link="b"/><origin xyz="0 0 0.15"/>
+  </joint>
+  <joint name="bc" type="floating">
+    <parent link="b"/><child link="c"/><origin xyz="0 0 -0.3"/>
+  </joint>
+</robot>
+"""
+CUBE = (
+    '<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" '
+    'izz="0.01"/></inertial><collision><geometry><box size="0.2 0.2 0.2"/></geometry>'
+    "</collision>"
+)
+
+
+@pytest.mark.parametrize(("self_collision", "touching"), [(False, set()), (True, {("a", "c")})])
+def test_links_collide_only_with_self_collision_and_never_parent_with_child(
+    tmp_path, self_collision, touching
+):
+    # floating joints hold nothing, so only the exclusions keep the overlapping cubes apart:
+    # b overlaps a and c (its parent and child), c overlaps a (not a neighbour)
+    path = tmp_path / "chain.urdf"
+    path.write_text(CHAIN.format(body=CUBE))
+    world = rbd.World(dt=1 / 240)
+    robot = rbd.load_urdf(world, path, self_collision=self_collision)
+    assert robot.joints == [] and len(world.joints["name"]) == 0
+    world.step()
+    names = {v: k for k, v in robot.bodies.items()}
+    contacts = world.contacts
+    pairs = {
+        tuple(sorted((names[a], names[b])))
+        for a, b in zip(contacts["body_a"], contacts["body_b"], strict=True)
+    }
+    assert pairs == touching
+
+
+def test_a_massless_root_needs_a_fixed_base():
+    world = rbd.World()
+    with pytest.raises(ValueError, match=r"lbr_iiwa_link_0.*loads with fixed_base=True"):
+        rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"))
+    assert len(world) == 0
