@@ -43,8 +43,8 @@ from thesis_rbd.dynamics.joint_forces import friction_impulse, spring_impulse
 from thesis_rbd.dynamics.joint_rows import (
     axis_row,
     body_pose,
+    coupling_block,
     joint_rows,
-    row_coupling,
     row_responses,
     row_written,
     write_row,
@@ -200,10 +200,7 @@ def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orient
     joint rows' reaction per unit motor impulse: the motor turns a hinged body about the
     hinge (its inertia about the axis through the anchor), not about its own centre."""
     A = np.empty((count, count))
-    row_joint = np.full(count, j)
-    for i in range(count):
-        for k in range(count):
-            A[i, k] = row_coupling(ints, row_joint, rows, moved, i, k)
+    coupling_block(ints, np.full(count, j), rows, moved, 0, count, 0, count, A)
     speeds = np.empty(count)
     for k in range(count):
         speeds[k] = 0.0

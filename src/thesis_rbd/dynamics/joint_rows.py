@@ -67,6 +67,8 @@ __all__ = [
     "axis_state",
     "body_pose",
     "cone_angle",
+    "coupling_block",
+    "coupling_matrix",
     "equality_row_count",
     "frame_axis_row",
     "has_axes",
@@ -75,7 +77,6 @@ __all__ = [
     "joint_row_count",
     "joint_rows",
     "read_joints",
-    "row_coupling",
     "row_responses",
     "row_written",
     "write_row",
@@ -668,11 +669,14 @@ def row_responses(rows, row_joint, count, ints, frozen, orientation, inverse_mas
 
 
 @njit
-def row_coupling(ints, row_joint, rows, moved, i, k):
-    """J_i M^-1 J_k^T over the bodies rows i and k share (``moved`` from
-    ``row_responses``)."""
-    total = 0.0
-    ji, jk = row_joint[i], row_joint[k]
+def coupling_block(ints, row_joint, rows, moved, first_i, count_i, first_k, count_k, block):
+    """block[:count_i, :count_k] <- J_i M^-1 J_k^T for the ``count_i`` rows of one joint from
+    ``first_i`` against the ``count_k`` rows of one joint from ``first_k`` (``moved`` from
+    ``row_responses``), over the bodies the two joints share, matched once per block."""
+    ji, jk = row_joint[first_i], row_joint[first_k]
+    for i in range(count_i):
+        for k in range(count_k):
+            block[i, k] = 0.0
     for side_i in range(2):
         body = ints[ji, BODY_A + side_i]
         if body < 0:
@@ -681,10 +685,40 @@ def row_coupling(ints, row_joint, rows, moved, i, k):
         for side_k in range(2):
             if ints[jk, BODY_A + side_k] != body:
                 continue
-            for c in range(3):
-                total += sign * rows[i, c] * moved[k, 6 * side_k + c]
-                total += rows[i, 3 + 3 * side_i + c] * moved[k, 6 * side_k + 3 + c]
-    return total
+            for i in range(count_i):
+                row = rows[first_i + i]
+                for k in range(count_k):
+                    m = moved[first_k + k]
+                    total = 0.0
+                    for c in range(3):
+                        total += sign * row[c] * m[6 * side_k + c]
+                        total += row[3 + 3 * side_i + c] * m[6 * side_k + 3 + c]
+                    block[i, k] += total
+
+
+@njit
+def coupling_matrix(ints, row_joint, rows, moved, size, K):
+    """K[:size, :size] <- J M^-1 J^T of rows[:size] (each joint's rows consecutive), block by
+    block (``coupling_block``)."""
+    i = 0
+    while i < size:
+        count_i = _joint_run(row_joint, i, size)
+        k = 0
+        while k < size:
+            count_k = _joint_run(row_joint, k, size)
+            coupling_block(ints, row_joint, rows, moved, i, count_i, k, count_k,
+                           K[i : i + count_i, k : k + count_k])  # fmt: skip
+            k += count_k
+        i += count_i
+
+
+@njit(allocates=False)
+def _joint_run(row_joint, first, size):
+    """How many rows from ``first`` belong to its joint."""
+    end = first + 1
+    while end < size and row_joint[end] == row_joint[first]:
+        end += 1
+    return end - first
 
 
 @njit

@@ -43,9 +43,10 @@ from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_motors import drive_joints
 from thesis_rbd.dynamics.joint_rows import (
     body_pose,
+    coupling_block,
+    coupling_matrix,
     joint_row_count,
     joint_rows,
-    row_coupling,
     row_responses,
     row_written,
 )
@@ -403,9 +404,7 @@ def project_island(
                        step)  # fmt: skip
         else:
             if not factored:
-                for i in range(size):
-                    for k in range(size):
-                        K[i, k] = row_coupling(ints, row_joint, current, moved, i, k)
+                coupling_matrix(ints, row_joint, current, moved, size, K)
                 kept = lu_in_place(K, size)
             left_solve(K, kept, size, step, 0)
         factored = True
@@ -483,39 +482,12 @@ def _tree_factor(layout, ints, row_joint, current, moved):
     for e in range(len(rows)):
         for s in range(self_slot[e], self_slot[e + 1]):
             f = e if s == self_slot[e] else slot_neighbour[s]
-            _coupling_block(ints, row_joint, current, moved, row_start[e], rows[e],
-                            row_start[f], rows[f], upper[s])  # fmt: skip
+            coupling_block(ints, row_joint, current, moved, row_start[e], rows[e],
+                           row_start[f], rows[f], upper[s])  # fmt: skip
             if f != e:
-                _coupling_block(ints, row_joint, current, moved, row_start[f], rows[f],
-                                row_start[e], rows[e], lower[s])  # fmt: skip
+                coupling_block(ints, row_joint, current, moved, row_start[f], rows[f],
+                               row_start[e], rows[e], lower[s])  # fmt: skip
     factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
-
-
-@njit
-def _coupling_block(ints, row_joint, current, moved, first_i, count_i, first_k, count_k, block):
-    """block[:count_i, :count_k] <- J_i M^-1 J_k^T for the rows of one joint against another's
-    (``row_coupling`` of every pair, the bodies they share matched once per block)."""
-    ji, jk = row_joint[first_i], row_joint[first_k]
-    for i in range(count_i):
-        for k in range(count_k):
-            block[i, k] = 0.0
-    for side_i in range(2):
-        body = ints[ji, BODY_A + side_i]
-        if body < 0:
-            continue
-        sign = 1.0 if side_i == 0 else -1.0
-        for side_k in range(2):
-            if ints[jk, BODY_A + side_k] != body:
-                continue
-            for i in range(count_i):
-                row = current[first_i + i]
-                for k in range(count_k):
-                    m = moved[first_k + k]
-                    total = 0.0
-                    for c in range(3):
-                        total += sign * row[c] * m[6 * side_k + c]
-                        total += row[3 + 3 * side_i + c] * m[6 * side_k + 3 + c]
-                    block[i, k] += total
 
 
 @njit
