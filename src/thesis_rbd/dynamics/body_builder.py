@@ -28,7 +28,7 @@ from thesis_rbd.geometry.mesh import TriangleMesh
 from thesis_rbd.geometry.width import hull_thickness
 from thesis_rbd.spatial.quaternion import quat_to_matrix
 
-__all__ = ["body_fields", "body_shape"]
+__all__ = ["body_fields", "body_shape", "explicit_mass_properties"]
 
 # Largest asymmetry |I - I^T| of an inertia tensor, relative to its largest entry, taken as
 # round-off (R diag(I) R^T computed in floating point) and symmetrised away.
@@ -92,7 +92,7 @@ def body_shape(mesh, shapes) -> tuple[TriangleMesh, tuple[TriangleMesh, ...]]:
     return merged, tuple(parts)
 
 
-def _explicit_mass_properties(mass, center_of_mass, inertia) -> tuple:
+def explicit_mass_properties(mass, center_of_mass, inertia) -> tuple:
     """The mass (float), centre of mass (3,) and inertia (3, 3) a user gave, checked: the
     inertia symmetric (to round-off, then made exactly so), positive definite, and its
     principal moments within the triangle inequality, as a rigid body's are."""
@@ -220,7 +220,7 @@ def body_fields(
         v_kinematic, w_kinematic = (v, w) if kinematic else (np.zeros(3), np.zeros(3))
     else:
         if explicit:
-            m, center, inertia = _explicit_mass_properties(mass, center_of_mass, inertia)
+            m, center, inertia = explicit_mass_properties(mass, center_of_mass, inertia)
         else:
             props = _mesh_mass_properties(mesh, parts, mass, density)
             center, m, inertia = props.center_of_mass, props.mass, props.inertia

@@ -69,7 +69,7 @@ from thesis_rbd._validate import as_finite_array
 from thesis_rbd.dynamics.joint_tree import elimination_order, later_neighbours
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
 
-__all__ = ["FREE_LENGTH", "JOINT_KINDS", "KIND_NAMES", "JointSet"]
+__all__ = ["FREE_LENGTH", "JOINT_KINDS", "KIND_NAMES", "JointSet", "check_reach"]
 
 # Kind names and their codes in the kernels (``joint_rows``).
 JOINT_KINDS = {
@@ -401,6 +401,18 @@ def _finite(value, name: str, allow_inf: bool = False) -> float:
     return number
 
 
+def check_reach(point, centres, radii, field: str) -> None:
+    """Refuse a joint's point further than ``_ANCHOR_REACH`` bounding radii from both of its
+    bodies' centres, (2, 3) m and (2,) m: a typo in a coordinate, not a mechanism."""
+    gaps = np.linalg.norm(np.asarray(point) - centres, axis=1)
+    if np.all(gaps > _ANCHOR_REACH * radii):
+        raise ValueError(
+            f"{field} is far from both bodies: {gaps[0]:.6g} m from body_a's centre and "
+            f"{gaps[1]:.6g} m from body_b's, more than {_ANCHOR_REACH:g} times their "
+            f"bounding radii ({radii[0]:.6g} m, {radii[1]:.6g} m)"
+        )
+
+
 class JointSet:
     """Growable arrays of joints.
 
@@ -449,9 +461,9 @@ class JointSet:
         axis, normal, binormal = frame
         axis_lower, axis_upper = _axis_limits(kind, options.get("axes"), options.get("limits"))
         if b >= 0:
-            self._check_reach(anchor, a, b, "anchor", bodies)
+            check_reach(anchor, bodies.position[[a, b]], bodies.size[[a, b]], "anchor")
             if kind == "distance":
-                self._check_reach(anchor_b, a, b, "anchor_b", bodies)
+                check_reach(anchor_b, bodies.position[[a, b]], bodies.size[[a, b]], "anchor_b")
         length = float(np.linalg.norm(anchor - anchor_b))
         # a distance joint with limits or a spring lets its length go: no rod
         code = JOINT_KINDS[kind]
@@ -511,19 +523,6 @@ class JointSet:
         if not 0 <= body < bodies.count:
             raise ValueError(f"{field}: no body {body}; the world has {bodies.count} bodies")
         return int(body)
-
-    @staticmethod
-    def _check_reach(point, a, b, field, bodies) -> None:
-        """Refuse a point far from both bodies (further than ``_ANCHOR_REACH`` bounding
-        radii from each centre): a typo in a coordinate, not a mechanism."""
-        gaps = [float(np.linalg.norm(point - bodies.position[i])) for i in (a, b)]
-        radii = [float(bodies.size[i]) for i in (a, b)]
-        if all(g > _ANCHOR_REACH * r for g, r in zip(gaps, radii, strict=True)):
-            raise ValueError(
-                f"{field} is far from both bodies: {gaps[0]:.6g} m from body_a's centre and "
-                f"{gaps[1]:.6g} m from body_b's, more than {_ANCHOR_REACH:g} times their "
-                f"bounding radii ({radii[0]:.6g} m, {radii[1]:.6g} m)"
-            )
 
     def jointed(self, count: int) -> np.ndarray:
         """(count,) bool: the bodies some joint holds."""

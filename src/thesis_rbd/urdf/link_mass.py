@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from thesis_rbd.dynamics.body_builder import explicit_mass_properties
+
 __all__ = ["LinkMass", "combine", "link_mass"]
 
 
@@ -31,8 +33,8 @@ def link_mass(link) -> LinkMass:
     Raises
     ------
     ValueError
-        Naming the link, for a negative or non-finite mass, or an inertia that is not
-        finite, symmetric and positive definite where the mass is positive.
+        Naming the link, for a negative or non-finite mass, or where the mass is positive,
+        an inertia ``add_body`` would refuse (``body_builder.explicit_mass_properties``).
     """
     inertial = link.inertial
     if inertial is None:
@@ -43,15 +45,14 @@ def link_mass(link) -> LinkMass:
     origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
     tensor = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, float)
     R = origin[:3, :3]
-    inertia = R @ tensor @ R.T
+    center, inertia = origin[:3, 3].copy(), R @ tensor @ R.T
     if mass > 0.0:
-        moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-        if not (np.all(np.isfinite(inertia)) and moments[0] > 0.0):
-            raise ValueError(
-                f"link {link.name!r}: inertia is not positive definite (principal moments "
-                f"{moments.tolist()})"
-            )
-    return LinkMass(mass, origin[:3, 3].copy(), inertia)
+        # the checks add_body makes, per link: a welded group's sum could hide a bad one
+        try:
+            mass, center, inertia = explicit_mass_properties(mass, center, inertia)
+        except ValueError as exc:
+            raise ValueError(f"link {link.name!r}: {exc}") from exc
+    return LinkMass(mass, center, inertia)
 
 
 def combine(parts: list[tuple[LinkMass, np.ndarray]]) -> LinkMass:

@@ -16,7 +16,7 @@ import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.dynamics.body_builder import body_fields, body_shape
-from thesis_rbd.dynamics.joint_set import _ANCHOR_REACH
+from thesis_rbd.dynamics.joint_set import check_reach
 from thesis_rbd.geometry import shapes
 from thesis_rbd.spatial.quaternion import quat_from_matrix
 from thesis_rbd.spatial.transform import transform_from_pose
@@ -293,19 +293,16 @@ def _body_arguments(group: _Body, links: dict, urdf_dir: Path, is_root: bool) ->
 
 
 def _check_reach(joint: _Joint, bodies, sizes) -> None:
-    """Refuse, before anything is added, a joint ``add_joint`` would refuse for its anchor
-    lying further than ``_ANCHOR_REACH`` bounding radii from both bodies' centres."""
+    """Refuse, before anything is added, a joint whose origin ``add_joint`` would refuse as
+    far from both its links (``joint_set.check_reach``)."""
     if joint.parent is None:
         return
     ends = (joint.child, joint.parent)
-    gaps = [float(np.linalg.norm(joint.anchor - bodies[k]["position"])) for k in ends]
-    if all(gap > _ANCHOR_REACH * sizes[k] for gap, k in zip(gaps, ends, strict=True)):
-        raise ValueError(
-            f"joint {joint.name!r}: its origin lies {gaps[0]:.3g} m and {gaps[1]:.3g} m from "
-            f"its links' centres of mass, more than {_ANCHOR_REACH:g} times the links' "
-            f"sizes ({sizes[ends[0]]:.3g} m, {sizes[ends[1]]:.3g} m, from their collision "
-            "geometry): a world joint takes it as a typo"
-        )
+    try:
+        check_reach(joint.anchor, np.array([bodies[k]["position"] for k in ends]),
+                    np.array([sizes[k] for k in ends]), "its origin")  # fmt: skip
+    except ValueError as exc:
+        raise ValueError(f"joint {joint.name!r}: {exc}") from exc
 
 
 def _joint(joint, child: int, parent: int, frame: np.ndarray) -> _Joint:
