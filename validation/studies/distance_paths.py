@@ -1,4 +1,4 @@
-"""Study: distance along approach paths against python-fcl, and what the hull bound costs.
+"""Study: distance along approach paths against python-fcl, and what its bounds cost.
 
 ``validation/distance_paths.py`` sets the scene: torus-capsule, torus-torus and hull-torus,
 body B coming in from one bounding-box diagonal beyond touching to touching over 40 poses
@@ -6,8 +6,9 @@ while it turns. At each pose :func:`thesis_rbd.distance` and python-fcl's ``dist
 default OBBRSS models, ``enable_nearest_points=True``) alternate within each repeat; each
 pose's time is its median, Python wrappers included. The record also says at which poses the
 convex hulls proved the distance (no box tested), and, for every mesh of the study, what the
-hull block that makes that possible costs: its bytes beside the tree's, and the time to
-build it beside the tree's build.
+two blocks a distance query adds to a tree cost: the hull and the nodes' supports along a
+grid of directions (the descent's centre-line bounds), each block's bytes beside the tree's
+and its build time beside the tree's build.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from validation.plotting import new_axes, save_figure
 from validation.section import Figure, Section, Table
 
 NAME = "distance_paths"
-TITLE = "Distance along approach paths against python-fcl, and the cost of its hull bound"
+TITLE = "Distance along approach paths against python-fcl, and the cost of its bounds"
 
 REPEATS = {"full": 30, "quick": 10, "tiny": 2}
 BUILDS = {"full": 7, "quick": 3, "tiny": 1}
@@ -44,10 +45,12 @@ def _median_seconds(call, count):
 
 
 def _build_costs(builds: int) -> list[dict]:
-    """Bytes and build time of the tree and of its hull block, for each mesh of the study."""
+    """Bytes and build time of the tree and of its hull and support blocks, for each mesh of
+    the study."""
     import thesis_rbd as rbd
     from thesis_rbd.collision.mesh.packed import hull_row, layout
     from thesis_rbd.collision.mesh.packed_hull import hull_block
+    from thesis_rbd.collision.mesh.packed_support import SUPPORT_ROWS, support_block
     from validation.distance_paths import pair_meshes
     from validation.tori import tori_mesh
 
@@ -60,6 +63,8 @@ def _build_costs(builds: int) -> list[dict]:
         tree = rbd.OBBTree(mesh)
         packed = tree.query_array(hull=True)
         hull_rows = packed.shape[0] - hull_row(packed, layout(packed))
+        nodes = len(tree.children)
+        supports = (tree.centers + tree.origin, tree.children, tree.root, mesh.vertices, mesh.faces)
         rows.append(
             {
                 "mesh": name,
@@ -71,13 +76,15 @@ def _build_costs(builds: int) -> list[dict]:
                 "hull_s": _median_seconds(
                     lambda mesh=mesh: hull_block(mesh.vertices, mesh.faces), builds
                 ),
+                "support_bytes": int(nodes * SUPPORT_ROWS * 3 * 8),
+                "support_s": _median_seconds(lambda a=supports: support_block(*a), builds),
             }
         )
     return rows
 
 
 def run(params: dict) -> dict:
-    """Per-pose times and answers along each path; the hull block's costs."""
+    """Per-pose times and answers along each path; the hull and support blocks' costs."""
     from validation.distance_paths import PAIRS, time_path
 
     paths = {}
@@ -139,9 +146,9 @@ def summarise(records: list[dict], figures_dir) -> Section:
         ],
     )
     build_table = Table(
-        caption="What the hull bound costs: the hull block's bytes and build time beside the "
-        "tree's (default leafless float64 tree); the block is built on a tree's first "
-        "distance query, not with the tree",
+        caption="What the distance bounds cost: the hull block's and the support block's bytes "
+        "and build times beside the tree's (default leafless float64 tree); both blocks are "
+        "built on a tree's first distance query, not with the tree",
         columns=[
             "mesh",
             "triangles",
@@ -149,8 +156,10 @@ def summarise(records: list[dict], figures_dir) -> Section:
             "tree bytes",
             "hull bytes",
             "hull bytes per triangle",
+            "support bytes per triangle",
             "tree build (ms)",
             "hull build (ms)",
+            "support build (ms)",
         ],
         rows=[
             [
@@ -160,8 +169,10 @@ def summarise(records: list[dict], figures_dir) -> Section:
                 str(b["tree_bytes"]),
                 str(b["hull_bytes"]),
                 format_number(b["hull_bytes"] / b["triangles"]),
+                format_number(b["support_bytes"] / b["triangles"]),
                 format_number(b["build_s"] * 1e3),
                 format_number(b["hull_s"] * 1e3),
+                format_number(b["support_s"] * 1e3),
             ]
             for b in builds
         ],

@@ -7,15 +7,18 @@ row blocks, and kernels index it at row offsets (:func:`layout`)::
 
     row 0         n nodes, n vertices, n faces
     row 1         root code, leafless (0/1), depth
-    row 2         scale, radius, 1 if a hull block follows the faces (else 0)
+    row 2         scale, radius, 1 if the support and hull blocks follow the faces
     centers       n rows
     half_extents  n rows
     rotations     3 n rows: rows 3 k : 3 k + 3 are node k's matrix, box axes as columns
     children      n rows: the two child codes (k >= 0 node, k < 0 triangle -k - 1), 0
     vertices      nv rows
     faces         nf rows: vertex indices
-    hull          (added by :func:`with_hull` when a distance query first needs it) the
-                  mesh's convex hull (:mod:`.packed_hull`), its flat values in rows of three
+    supports      (this block and the next added by :func:`with_hull` when a distance
+                  query first needs them) SUPPORT_ROWS rows per node: its supports along a
+                  grid of directions (:mod:`.packed_support`)
+    hull          the mesh's convex hull (:mod:`.packed_hull`), its flat values in rows of
+                  three
 
 Counts, codes and indices are integers stored as float64, exact below 2**53; kernels convert
 them with ``int()`` (one instruction). The scale is the mesh's bounding-box diagonal (relative
@@ -30,6 +33,7 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision.mesh.packed_hull import hull_block
+from thesis_rbd.collision.mesh.packed_support import SUPPORT_ROWS, support_block
 
 __all__ = [
     "HEADER_ROWS",
@@ -46,6 +50,7 @@ __all__ = [
     "pack_tree",
     "packed_views",
     "pair_corners",
+    "support_values",
     "tree_depth",
     "tree_radius",
     "tree_scale",
@@ -94,15 +99,20 @@ def pack_tree(centers, rotations, half_extents, children, root, leafless, depth,
 
 
 def with_hull(packed):
-    """The packed tree with the hull block of its mesh appended (flagged in its header), or
-    the array itself if it has one."""
+    """The packed tree with the support and hull blocks of its mesh appended (flagged in its
+    header), or the array itself if it has them."""
     if packed[2, 2] != 0.0:
         return packed
     n, nv, nf = (int(x) for x in packed[0])
     v = HEADER_ROWS + 6 * n
-    hull = hull_block(packed[v : v + nv], packed[v + nv : v + nv + nf].astype(np.int64))
+    vertices = packed[v : v + nv]
+    faces = packed[v + nv : v + nv + nf].astype(np.int64)
+    centers, _, _ = packed_views(packed)
+    children = packed[HEADER_ROWS + 5 * n : HEADER_ROWS + 6 * n, :2].astype(np.int64)
+    supports = support_block(centers, children, int(packed[1, 0]), vertices, faces)
+    hull = hull_block(vertices, faces)
     hull = np.concatenate([hull, np.zeros(-len(hull) % 3)]).reshape(-1, 3)
-    extended = np.concatenate([packed[: v + nv + nf], hull])
+    extended = np.concatenate([packed[: v + nv + nf], supports, hull])
     extended[2, 2] = 1.0
     return extended
 
@@ -157,7 +167,17 @@ def hull_row(P, L):
     none."""
     if P[2, 2] == 0.0:
         return -1
-    return L[5] + int(P[0, 2])
+    return L[5] + int(P[0, 2]) + SUPPORT_ROWS * int(P[0, 0])
+
+
+@njit
+def support_values(P, L):
+    """A packed tree read as float32 values, and the index there of its support block
+    (:mod:`.packed_support`), or -1 if it has none."""
+    S = P.reshape(P.size).view(np.float32)
+    if P[2, 2] == 0.0:
+        return S, -1
+    return S, 6 * (L[5] + int(P[0, 2]))
 
 
 @njit

@@ -6,21 +6,25 @@ that triangle pair is the answer and no tree is descended. That settles most pos
 facing each other with convex sides, at a few microseconds.
 
 Otherwise the two OBBTrees are descended from the pair of roots. A pair of tree codes (node
-or triangle, as in :mod:`.collide`) is split (the larger node, or the node facing a triangle);
-each child pair gets a lower bound on the distance of anything below it
-(:mod:`.box_distance`: separating-axis gaps, and the line through the box centres), a
-triangle pair is measured exactly at once (:mod:`.triangle_distance`, after a cheap gap
-test), lowering the best distance found, and the child of lesser bound goes on at once while
-nothing waiting comes before it. Pairs whose bound is not below the best are dropped, on the
-way down and when they are taken up again, and the search ends when nothing waits, or at once
-when two triangles intersect (distance 0). Pairs whose boxes may overlap (bound 0) wait on a
-stack that is emptied first, so a colliding pose is searched as an overlap query would search
-it and an intersection ends the search without sweeping every level. The others wait in a
-queue, least bound first, when the hulls measured no triangle pair (they overlap: the meshes
-are interlocked or nearly touching, where a bound found late would prune much that a
-depth-first search had already opened), and on a stack, depth first, when they did (a search
-that starts from a near-optimal bound visits about the boxes best first would, and a stack
-costs less to keep than a queue).
+or triangle, as in :mod:`.collide`) is split (the larger node, or the node facing a
+triangle); each child pair gets a lower bound on the distance of anything below it: first
+from the supports the nodes store along a grid of directions, projected on the line from the
+split node's centre to the other side (:mod:`.support_distance`), which is close to the true
+distance of two curved patches; where that does not prune the pair, also from the boxes
+(:mod:`.box_distance`: separating-axis gaps, and the line through the box centres), which
+bound overlapping and touching boxes better. A triangle pair is measured exactly at once
+(:mod:`.triangle_distance`, after a cheap gap test), lowering the best distance found, and
+the child of lesser bound goes on at once while nothing waiting comes before it. Pairs whose
+bound is not below the best are dropped, on the way down and when they are taken up again,
+and the search ends when nothing waits, or at once when two triangles intersect (distance
+0). Pairs whose boxes may overlap (bound 0) wait on a stack that is emptied first, so a
+colliding pose is searched as an overlap query would search it and an intersection ends the
+search without sweeping every level. The others wait in a queue, least bound first, when the
+hulls measured no triangle pair (they overlap: the meshes are interlocked or nearly
+touching, where a bound found late would prune much that a depth-first search had already
+opened), and on a stack, depth first, when they did (a search that starts from a near-
+optimal bound visits about the boxes best first would, and a stack costs less to keep than a
+queue).
 
 All geometry is evaluated in A's mesh frame (B's boxes and triangles carried over by
 ``T_a^-1 T_b``); the closest points are mapped to the world at the end.
@@ -42,8 +46,10 @@ from thesis_rbd.collision.mesh.packed import (
     layout,
     node_size,
     pair_corners,
+    support_values,
     tree_depth,
 )
+from thesis_rbd.collision.mesh.packed_support import support_along, support_weights
 from thesis_rbd.collision.queries._query_args import (
     as_pose,
     as_pose_stack,
@@ -58,6 +64,7 @@ from thesis_rbd.collision.queries._query_args import (
 )
 from thesis_rbd.collision.queries.box_distance import box_box_gap, triangle_box_gap
 from thesis_rbd.collision.queries.hull_distance import hull_distance
+from thesis_rbd.collision.queries.support_distance import child_gap, triangle_reach
 from thesis_rbd.collision.queries.triangle_distance import triangle_distance, triangle_gap
 
 __all__ = ["DistanceResult", "distance", "mesh_distance"]
@@ -166,6 +173,22 @@ def _triangle_box_bound(P, L, k, w0, w1, w2, cutoff):
 
 
 @njit(allocates=False)
+def _centre(P, L, k):
+    """Centre of box k of tree (P, L), in its mesh frame."""
+    r = L[0] + k
+    return (P[r, 0], P[r, 1], P[r, 2])
+
+
+@njit(allocates=False)
+def _centroid(w0, w1, w2):
+    return (
+        (w0[0] + w1[0] + w2[0]) / 3.0,
+        (w0[1] + w1[1] + w2[1]) / 3.0,
+        (w0[2] + w1[2] + w2[2]) / 3.0,
+    )
+
+
+@njit(allocates=False)
 def _gap(x, y, Pa, La, Pb, Lb, Mab, tab):
     """Cheap lower bound on the distance of the triangle pair (x, y) (codes < 0)."""
     return triangle_gap(*pair_corners(-x - 1, -y - 1, Pa, La, Pb, Lb, Mab, tab))
@@ -217,6 +240,9 @@ def mesh_distance(Pa, Pb, Mab, tab):
     )
     if proved:
         return best, best_a, best_b, face_a, face_b, 0, triangle_tests
+    Fa, sa = support_values(Pa, La)
+    Fb, sb = support_values(Pb, Lb)
+    supports = sa >= 0 and sb >= 0
     stack = np.empty((8 * (tree_depth(Pa) + tree_depth(Pb)) + 16, 3))
     capacity = stack.shape[0]
     size = 0
@@ -227,7 +253,6 @@ def mesh_distance(Pa, Pb, Mab, tab):
     carried_a = -1
     ga = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     ca = (0.0, 0.0, 0.0)
-    split_b = False
     # least bound first while nothing bounds the search; depth first from a bound the hulls
     # measured (see the module docstring)
     ordered = best == math.inf
@@ -238,6 +263,23 @@ def mesh_distance(Pa, Pb, Mab, tab):
     wa0 = wa1 = wa2 = wb0 = wb1 = wb2 = (0.0, 0.0, 0.0)
     g = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     c = (0.0, 0.0, 0.0)
+    # The root pair is bounded as a split's children are: the other side carried first
+    # (A's lone triangle into B's frame, or B's root into A's).
+    split_b = x0 < 0
+    if split_b:
+        wa0, wa1, wa2 = _carried_triangle(Pa, La, -x0 - 1, Mba, tba)
+        carried_triangle_a = x0
+    elif y0 >= 0:
+        g, c = carry_box(y0, Pb, Lb, Mab, tab)
+        carried = y0
+    else:
+        wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y0 - 1, Mab, tab)
+        carried_triangle_b = y0
+    # the support bounds' line of the current split (none for the root pair)
+    lined = False
+    line = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    weights = support_weights(0.0, 0.0, 0.0)
+    reach = 0.0
     # The search runs in the inner loop until it is done or its stacks have no room for a
     # split's two pushes; the array then grows out here (numba reference-counts an array
     # variable that a loop reassigns on every pass of that loop).
@@ -275,32 +317,35 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 if x < 0 and y < 0:
                     continue
                 bound_tests += 1
-                if x >= 0 and y >= 0 and split_b:
-                    # B's children against one A box: that box carried into B's frame once
-                    if x != carried_a:
-                        ga, ca = carry_box(x, Pa, La, Mba, tba)
-                        carried_a = x
+                # The support bound first (on the split's centre line, see below); the box
+                # bound only where it does not prune, and then the larger of the two.
+                bound = -math.inf
+                if lined and split_b:
+                    bound = child_gap(Pb, Lb, Fb, sb, y, line, weights, reach)
+                elif lined:
+                    bound = child_gap(Pa, La, Fa, sa, x, line, weights, reach)
+                if bound >= best:
+                    pass
+                elif x >= 0 and y >= 0 and split_b:
                     R, T = box_frame(y, Pb, Lb, ga, ca)
-                    bound = box_box_gap(R, T, half_extent(Pb, Lb, y), half_extent(Pa, La, x), best)
+                    hx = half_extent(Pa, La, x)
+                    bound = max(bound, box_box_gap(R, T, half_extent(Pb, Lb, y), hx, best))
                 elif x >= 0 and y >= 0:
-                    if y != carried:
-                        g, c = carry_box(y, Pb, Lb, Mab, tab)
-                        carried = y
                     R, T = box_frame(x, Pa, La, g, c)
                     hx = half_extent(Pa, La, x)
-                    bound = box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best)
+                    bound = max(bound, box_box_gap(R, T, hx, half_extent(Pb, Lb, y), best))
                 elif x < 0:
-                    # a triangle of A facing B's boxes: its corners carried into B's frame
-                    # once, then into each box's
+                    # a triangle of A facing a B box: its corners carried into B's frame
+                    # (already, where it is the side not split)
                     if x != carried_triangle_a:
                         wa0, wa1, wa2 = _carried_triangle(Pa, La, -x - 1, Mba, tba)
                         carried_triangle_a = x
-                    bound = _triangle_box_bound(Pb, Lb, y, wa0, wa1, wa2, best)
+                    bound = max(bound, _triangle_box_bound(Pb, Lb, y, wa0, wa1, wa2, best))
                 else:
                     if y != carried_triangle_b:
                         wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y - 1, Mab, tab)
                         carried_triangle_b = y
-                    bound = _triangle_box_bound(Pa, La, x, wb0, wb1, wb2, best)
+                    bound = max(bound, _triangle_box_bound(Pa, La, x, wb0, wb1, wb2, best))
                 if k == 0:
                     b0 = bound
                 else:
@@ -373,16 +418,76 @@ def mesh_distance(Pa, Pb, Mab, tab):
                     row = first
             # Split the larger node (a node facing a triangle is split).
             split_b = x < 0 or (y >= 0 and node_size(Pb, Lb, y) > node_size(Pa, La, x))
+            # The side that is not split, carried into the split side's frame once for both
+            # children (and kept while it meets the next split's): a box's axes and centre,
+            # or a triangle's corners; its reference point ``anchor`` there.
             if split_b:
                 c0, c1, n_pending = _children(Pb, Lb, y)
                 x0 = x1 = x
                 y0 = c0
                 y1 = c1
+                if x >= 0:
+                    if x != carried_a:
+                        ga, ca = carry_box(x, Pa, La, Mba, tba)
+                        carried_a = x
+                    anchor = ca
+                else:
+                    if x != carried_triangle_a:
+                        wa0, wa1, wa2 = _carried_triangle(Pa, La, -x - 1, Mba, tba)
+                        carried_triangle_a = x
+                    anchor = _centroid(wa0, wa1, wa2)
+                split_centre = _centre(Pb, Lb, y)
             else:
                 c0, c1, n_pending = _children(Pa, La, x)
                 x0 = c0
                 x1 = c1
                 y0 = y1 = y
+                if y >= 0:
+                    if y != carried:
+                        g, c = carry_box(y, Pb, Lb, Mab, tab)
+                        carried = y
+                    anchor = c
+                else:
+                    if y != carried_triangle_b:
+                        wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y - 1, Mab, tab)
+                        carried_triangle_b = y
+                    anchor = _centroid(wb0, wb1, wb2)
+                split_centre = _centre(Pa, La, x)
+            # The children's support bounds share one line, from the split node's centre to
+            # the anchor (unit ``u`` in the split side's frame): the fixed side's reach back
+            # along it is measured once (``reach``), and where each child's support is read
+            # (``weights``) is the same for both.
+            wx = anchor[0] - split_centre[0]
+            wy = anchor[1] - split_centre[1]
+            wz = anchor[2] - split_centre[2]
+            length = math.sqrt(wx * wx + wy * wy + wz * wz)
+            lined = supports and length > 0.0
+            if lined:
+                ux = wx / length
+                uy = wy / length
+                uz = wz / length
+                line = (anchor[0], anchor[1], anchor[2], ux, uy, uz)
+                weights = support_weights(ux, uy, uz)
+                if split_b and x >= 0:
+                    # -u in A's frame
+                    reach = support_along(
+                        Fa, sa, x,
+                        -(Mab[0] * ux + Mab[1] * uy + Mab[2] * uz),
+                        -(Mab[3] * ux + Mab[4] * uy + Mab[5] * uz),
+                        -(Mab[6] * ux + Mab[7] * uy + Mab[8] * uz),
+                    )  # fmt: skip
+                elif split_b:
+                    reach = triangle_reach(wa0, wa1, wa2, anchor, ux, uy, uz)
+                elif y >= 0:
+                    # -u in B's frame
+                    reach = support_along(
+                        Fb, sb, y,
+                        -(Mab[0] * ux + Mab[3] * uy + Mab[6] * uz),
+                        -(Mab[1] * ux + Mab[4] * uy + Mab[7] * uz),
+                        -(Mab[2] * ux + Mab[5] * uy + Mab[8] * uz),
+                    )  # fmt: skip
+                else:
+                    reach = triangle_reach(wb0, wb1, wb2, anchor, ux, uy, uz)
         if searching:
             stack = _grown(stack, size, zeros)
             capacity = stack.shape[0]
