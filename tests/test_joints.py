@@ -6,6 +6,7 @@ campaign measures them.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -830,6 +831,40 @@ def test_a_very_stiff_position_motor_stays_stable():
     world, _ = _wheel({"position": -1.0, "stiffness": 1e9, "damping": 1.0})
     world.step(240)
     assert world.joints["position"][0] == pytest.approx(-1.0, abs=1e-6)
+
+
+def test_capped_servo_brakes_before_its_target():
+    """A servo capped at 5 N m turns a hinged rod (no gravity) 1 rad: it can accelerate at
+    a = 5 / I at most, so the time-optimal move (full torque, then full braking) takes
+    2 sqrt(1 / a). It brakes on the curve v = sqrt(2 a e) and arrives without ringing; a
+    servo that only braked on arriving overshot by 0.97 rad and never settled."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, 0))
+    rod = world.add_body(rbd.shapes.box((0.1, 0.1, 1.0)), mass=2.0, position=(0, 0, -0.5))
+    world.add_joint("revolute", rod, None, anchor=(0, 0, 0), axis=(1, 0, 0))
+    world.set_motor(0, servo=1.0, max_force=5.0)
+    inertia = 2.0 * (0.01 + 1.0) / 12 + 2.0 * 0.25
+    fastest = 2.0 * math.sqrt(1.0 / (5.0 / inertia))
+    angles = []
+    for _ in range(2 * 240):
+        world.step()
+        angles.append(world.joints["position"][0])
+    angles = np.array(angles)
+    assert angles.max() - 1.0 < 0.01
+    settled = np.flatnonzero(np.abs(angles - 1.0) > 1e-3).max() + 1
+    assert settled / 240 < 1.2 * fastest
+    assert abs(angles[-1] - 1.0) < 1e-9
+
+
+def test_uncapped_servo_turns_to_a_distant_target():
+    """An uncapped servo asked for 3 rad: it turns at most a quarter radian per substep,
+    which the joint's projection follows (asking for the whole turn in one substep, at a
+    rate that grew as the failed substeps were halved, went non-finite)."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -G))
+    rod = world.add_body(rbd.shapes.box((0.1, 0.1, 1.0)), mass=2.0, position=(0, 0, -0.5))
+    world.add_joint("revolute", rod, None, anchor=(0, 0, 0), axis=(1, 0, 0))
+    world.set_motor(0, servo=3.0)
+    world.step(30)
+    assert world.joints["position"][0] == pytest.approx(3.0, abs=1e-9)
 
 
 def test_servo_holds_a_pendulum_level_within_its_force_and_speed():

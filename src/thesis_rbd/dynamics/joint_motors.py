@@ -19,8 +19,9 @@ joint sees the motion the motor gave:
   lam = h (k e - (k h + c) v+) for the position error e and the row's velocity v+ after it,
   clipped to its cap;
 * a servo holds its target as a constraint (pybullet's position control): the velocity that
-  reaches the target in one substep, clipped to its most speed, taken with the capped
-  impulse of a velocity motor.
+  reaches the target in one substep, clipped to its most speed and to the speed from which
+  its capped force can still stop it at the target, taken with the capped impulse of a
+  velocity motor.
 
 A joint's spring and damper (a distance joint's spring, a hinge's or slider's viscous
 damping) and its friction act along the same row in the same sweeps, after its motor and
@@ -78,6 +79,8 @@ REVOLUTE = JOINT_KINDS["revolute"]
 # Gauss-Seidel sweeps over an island's velocity, position and servo motors, springs, dampers
 # and friction per substep.
 MOTOR_SWEEPS = 4
+# Most turn (rad) a hinge's servo asks for in one substep.
+_SERVO_TURN = 0.25
 
 
 @njit(allocates=False)
@@ -256,6 +259,22 @@ def _push(j, lam, row, ints, frozen, linear_momentum, angular_momentum, impulse)
 
 
 @njit
+def _servo_speed(h, kind, f, error, mass):
+    """The rate a servo asks for its position ``error``: the one that closes it within the
+    substep, but no more than its most speed, no faster than it can still stop from with
+    its capped force (sqrt(2 a |e|) for the deceleration a = cap / effective mass: a capped
+    servo that only brakes on arriving overshoots and rings), and, for a hinge, no more
+    than ``_SERVO_TURN`` per substep (the joint's projection follows a turn of that size;
+    a rate that grew as 1 / h would defeat the substeps a failed projection takes again)."""
+    most = f[MOTOR_SPEED]
+    if f[MOTOR_MAX] < math.inf:
+        most = min(most, math.sqrt(2.0 * f[MOTOR_MAX] / mass * abs(error)))
+    if kind == REVOLUTE:
+        most = min(most, _SERVO_TURN / h)
+    return min(max(error / h, -most), most)
+
+
+@njit
 def _wanted(h, kind, f, place, velocity, mass, applied):
     """The impulse a velocity, position or servo motor adds this sweep (before its cap),
     for its row's velocity now and effective mass, having applied ``applied`` this substep."""
@@ -266,8 +285,7 @@ def _wanted(h, kind, f, place, velocity, mass, applied):
     if kind == REVOLUTE:  # the short way round
         error -= 2.0 * math.pi * round(error / (2.0 * math.pi))
     if code == SERVO_MOTOR:
-        speed = min(max(error / h, -f[MOTOR_SPEED]), f[MOTOR_SPEED])
-        return mass * (speed - velocity)
+        return mass * (_servo_speed(h, kind, f, error, mass) - velocity)
     return spring_impulse(h, f[MOTOR_STIFFNESS], f[MOTOR_DAMPING], error, velocity, mass,
                           applied)  # fmt: skip
 
