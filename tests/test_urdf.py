@@ -180,6 +180,58 @@ def test_servo_targets_hold_the_iiwa():
     assert error < 1e-3
 
 
+def _settle_time(errors, tolerance):
+    """Seconds (at 240 Hz) after which every joint stays within ``tolerance`` rad."""
+    outside = np.flatnonzero(np.abs(errors).max(axis=1) > tolerance)
+    return (outside.max() + 1) / 240 if len(outside) else 0.0
+
+
+def test_position_control_settles_the_iiwa_on_a_distant_pose():
+    """Servos capped by the URDF (300 N m, 10 rad/s) move the iiwa from its zero pose to one
+    up to 1.2 rad away under gravity; pybullet's POSITION_CONTROL with the same caps (its
+    default gains, link damping zeroed) is the peer. Each servo brakes for the arm beyond
+    it: with only its own link in view, the shoulder overshot by 0.9 rad and still swung
+    0.3 rad after 8 s."""
+    pybullet = pytest.importorskip("pybullet")
+    target = np.array([0.5, 0.4, -0.3, -1.2, 0.2, 0.8, 0.1])
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"), fixed_base=True)
+    robot.set_joint_targets(target)
+    ours = []
+    for _ in range(3 * 240):
+        world.step()
+        ours.append(robot.joint_positions() - target)
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+        pybullet.setTimeStep(1 / 240, physicsClientId=client)
+        arm = pybullet.loadURDF(
+            str(_data("kuka_iiwa/model.urdf")), useFixedBase=True,
+            flags=pybullet.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client,
+        )  # fmt: skip
+        for j in range(len(target)):
+            pybullet.changeDynamics(arm, j, linearDamping=0, angularDamping=0,
+                                    physicsClientId=client)  # fmt: skip
+            pybullet.setJointMotorControl2(
+                arm, j, pybullet.POSITION_CONTROL, targetPosition=target[j], force=300,
+                maxVelocity=10, physicsClientId=client,
+            )  # fmt: skip
+        peer = []
+        for _ in range(3 * 240):
+            pybullet.stepSimulation(physicsClientId=client)
+            states = pybullet.getJointStates(arm, range(len(target)), physicsClientId=client)
+            peer.append(np.array([s[0] for s in states]) - target)
+    finally:
+        pybullet.disconnect(client)
+    ours_settle = _settle_time(np.array(ours), 0.01)
+    peer_settle = _settle_time(np.array(peer), 0.01)
+    print(f"iiwa position control settles within 0.01 rad after {ours_settle:.3f} s "
+          f"(pybullet {peer_settle:.3f} s)")  # fmt: skip
+    assert peer_settle < 1.0
+    assert ours_settle < 2 * peer_settle
+    assert np.abs(ours[-1]).max() < 1e-3
+
+
 TWO_LINKS = """<?xml version="1.0"?>
 <robot name="bad">
   <link name="base">

@@ -8,11 +8,12 @@ per substep, after the forces and before the bodies move, so the projection that
 joint sees the motion the motor gave:
 
 * a velocity motor takes the impulse that brings the row's velocity J v to its target,
-  clipped to the cap times the substep, with its own joint's rows held: the row's effective
-  mass is then the bodies' inertia about the joint's axis (a hinged ball's m r^2 + I, not its
-  own I), the velocity the one its joint will leave it, and the joint's reaction goes with
-  the impulse. The motors of an island are swept a few times (Gauss-Seidel), each
-  accumulating and clipping its own impulse, since they share bodies;
+  clipped to the cap times the substep, with every joint row of its island held: the row's
+  effective mass is then the mechanism's inertia as the joint feels it (a hinged ball's
+  m r^2 + I, not its own I; a shoulder's, the arm beyond it), the velocity the one the
+  joints will leave it, and the joints' reactions go with the impulse. The motors of an
+  island are swept a few times (Gauss-Seidel) over their coupling with the joints held,
+  each accumulating and clipping its own impulse, since they share the mechanism;
 * a torque motor gives the set torque (or force) times the substep;
 * a position motor is a spring of stiffness k and a damper c towards its target, taken at the
   end of the substep (implicitly, so that no gain is too stiff for the step): the impulse
@@ -20,8 +21,8 @@ joint sees the motion the motor gave:
   clipped to its cap;
 * a servo holds its target as a constraint (pybullet's position control): the velocity that
   reaches the target in one substep, clipped to its most speed and to the speed from which
-  its capped force can still stop it at the target, taken with the capped impulse of a
-  velocity motor.
+  half its capped force can still stop what it moves (with the other motors' joints held
+  too) at the target, taken with the capped impulse of a velocity motor.
 
 A joint's spring and damper (a distance joint's spring, a hinge's or slider's viscous
 damping) and its friction act along the same row in the same sweeps, after its motor and
@@ -44,7 +45,7 @@ from thesis_rbd.dynamics.joint_forces import friction_impulse, spring_impulse
 from thesis_rbd.dynamics.joint_rows import (
     axis_row,
     body_pose,
-    coupling_block,
+    coupling_matrix,
     joint_rows,
     row_responses,
     row_written,
@@ -129,91 +130,156 @@ def drive_joints(
             sweeps = MOTOR_SWEEPS
     if sweeps == 0:
         return
-    # each motor's, spring's and friction's impulse this substep
-    applied = np.zeros((len(joints), 3))
-    rows = np.empty((8, 10))  # the axis row, then its joint's own rows
-    moved = np.empty((8, 12))
+    # Every joint row of the island held, the swept joints' axis rows free: their coupling
+    # S (inverse effective masses) and velocities with the joints held.
+    swept = np.empty(len(joints), dtype=np.int64)
+    count = 0
+    for j in joints:
+        if _swept(floats[j]):
+            swept[count] = j
+            count += 1
+    swept = swept[:count]
+    held, S, free_speed, reaction, places, rows, row_joint = _held_island(
+        joints, swept, ints, floats, frozen, position, orientation, linear_momentum,
+        angular_momentum, inverse_mass, inverse_inertia_body, kinematic_velocity,
+        kinematic_angular_velocity,
+    )  # fmt: skip
+    braked = _braked_masses(S, count)
+    # each axis row's motor, spring and friction impulse this substep
+    applied = np.zeros((count, 3))
     for _ in range(sweeps):
-        for e in range(len(joints)):
-            j = joints[e]
+        for e in range(count):
+            j = swept[e]
             f = floats[j]
-            if not _swept(f):
+            if not S[e, e] > 0.0:
                 continue
-            count, place = _motor_rows(j, ints, floats, frozen, position, orientation,
-                                       inverse_mass, inverse_inertia_body, rows, moved)  # fmt: skip
-            velocity, mass, reaction = _held_motion(
-                j, ints, frozen, count, rows, moved, linear_momentum, angular_momentum,
-                inverse_mass, orientation, inverse_inertia_body, kinematic_velocity,
-                kinematic_angular_velocity,
-            )  # fmt: skip
-            if not mass > 0.0:
-                continue
-            motor = 0.0
+            mass = 1.0 / S[e, e]
+            velocity = free_speed[e]
+            for k in range(count):
+                velocity += S[e, k] * (applied[k, 0] + applied[k, 1] + applied[k, 2])
             code = int(f[MOTOR])
             if code != NO_MOTOR and code != TORQUE_MOTOR:
-                wanted = _wanted(h, ints[j, KIND], f, place, velocity, mass, applied[e, 0])
+                wanted = _wanted(h, ints[j, KIND], f, places[e], velocity, mass,
+                                 max(mass, braked[e]), applied[e, 0])  # fmt: skip
                 cap = f[MOTOR_MAX] * h
                 total = min(max(applied[e, 0] + wanted, -cap), cap)
-                motor = total - applied[e, 0]
+                velocity += (total - applied[e, 0]) / mass
                 applied[e, 0] = total
-                velocity += motor / mass
-            spring = 0.0
             if f[SPRING_STIFFNESS] > 0.0 or f[DAMPING] > 0.0:
                 spring = spring_impulse(h, f[SPRING_STIFFNESS], f[DAMPING],
-                                        f[SPRING_REST] - place, velocity, mass,
+                                        f[SPRING_REST] - places[e], velocity, mass,
                                         applied[e, 1])  # fmt: skip
                 applied[e, 1] += spring
                 velocity += spring / mass
-            friction = 0.0
             if f[FRICTION] > 0.0:
-                friction = friction_impulse(h, f[FRICTION], velocity, mass, applied[e, 2])
-                applied[e, 2] += friction
-            lam = motor + spring + friction
-            for k in range(count):
-                _push(j, (lam if k == 0 else -reaction[k] * lam), rows[k], ints, frozen,
-                      linear_momentum, angular_momentum, impulse)  # fmt: skip
-            impulse[j, 6] += motor
+                applied[e, 2] += friction_impulse(h, f[FRICTION], velocity, mass, applied[e, 2])
+    # the axis rows' impulses, and the held joint rows' reactions to them
+    lam = np.empty(count)
+    for e in range(count):
+        lam[e] = applied[e, 0] + applied[e, 1] + applied[e, 2]
+        _push(swept[e], lam[e], rows[held + e], ints, frozen, linear_momentum,
+              angular_momentum, impulse)  # fmt: skip
+        impulse[swept[e], 6] += applied[e, 0]
+    for r in range(held):
+        push = 0.0
+        for e in range(count):
+            push -= reaction[r, e] * lam[e]
+        _push(row_joint[r], push, rows[r], ints, frozen, linear_momentum,
+              angular_momentum, impulse)  # fmt: skip
 
 
 @njit
-def _motor_rows(j, ints, floats, frozen, position, orientation, inverse_mass,
-                inverse_inertia_body, rows, moved):  # fmt: skip
-    """Joint j's axis row (row 0) and its own rows that act now (rows 1..), with M^-1 J^T
-    of each; returns how many, and the joint's position."""
-    a, b = ints[j, BODY_A], ints[j, BODY_B]
-    xa, qa = body_pose(a, position, orientation)
-    xb, qb = body_pose(b, position, orientation)
-    lin, ang_a, ang_b, place = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
-    write_row(rows, 0, lin, ang_a, ang_b, 0.0)
-    n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, 1, True)
-    count = 0
-    for k in range(n + 1):  # rows written as zero (limits not reached) are left out
-        if row_written(rows, k):
-            rows[count] = rows[k]
-            count += 1
-    row_responses(rows, np.full(count, j), count, ints, frozen, orientation, inverse_mass,
+def _held_island(joints, swept, ints, floats, frozen, position, orientation, P, L,
+                 inverse_mass, inverse_inertia_body, kinematic_velocity,
+                 kinematic_angular_velocity):  # fmt: skip
+    """The swept joints' axis rows with every joint row of the island held.
+
+    With K = J M^-1 J^T over the island's joint rows (e, held) and the axis rows (m), an
+    impulse lam along the axis rows, the held rows answering it with -K_ee^-1 K_em lam,
+    changes the axis rows' velocities by S lam, S = K_mm - K_me K_ee^-1 K_em: the inverse
+    of the mechanism's mass as the motors feel it (a shoulder's servo swings the arm beyond
+    it, not its own link alone).
+
+    Returns
+    -------
+    held : int
+        Joint rows held (the first ``held`` of ``rows``; the axis rows follow, one per
+        entry of ``swept``).
+    S : (m, m) float64
+    free_speed : (m,) float64
+        The axis rows' velocities once the held rows' own velocities are taken out.
+    reaction : (held, m) float64
+        K_ee^-1 K_em: the held rows' impulses per unit axis impulse, negated.
+    places : (m,) float64
+        Each swept joint's position.
+    rows, row_joint : (held + m, 10) float64, (held + m,) int64
+    """
+    count = len(swept)
+    rows = np.empty((8 * len(joints) + count, 10))
+    row_joint = np.empty(8 * len(joints) + count, dtype=np.int64)
+    held = 0
+    for j in joints:
+        xa, qa = body_pose(ints[j, BODY_A], position, orientation)
+        xb, qb = body_pose(ints[j, BODY_B], position, orientation)
+        n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, held, True)
+        for k in range(held, held + n):  # rows written as zero (limits not reached) left out
+            if row_written(rows, k):
+                rows[held] = rows[k]
+                row_joint[held] = j
+                held += 1
+    places = np.empty(count)
+    for e in range(count):
+        j = swept[e]
+        xa, qa = body_pose(ints[j, BODY_A], position, orientation)
+        xb, qb = body_pose(ints[j, BODY_B], position, orientation)
+        lin, ang_a, ang_b, places[e] = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
+        write_row(rows, held + e, lin, ang_a, ang_b, 0.0)
+        row_joint[held + e] = j
+    total = held + count
+    moved = np.empty((total, 12))
+    row_responses(rows, row_joint, total, ints, frozen, orientation, inverse_mass,
                   inverse_inertia_body, moved)  # fmt: skip
-    return count, place
+    K = np.empty((total, total))
+    coupling_matrix(ints, row_joint, rows, moved, total, K)
+    speeds = _row_speeds(rows, row_joint, total, ints, frozen, orientation, P, L, inverse_mass,
+                         inverse_inertia_body, kinematic_velocity,
+                         kinematic_angular_velocity)  # fmt: skip
+    D = K[:held, :held].copy()
+    kept = lu_in_place(D, held)
+    reaction = np.empty((held, count))
+    column = np.empty(held)
+    for e in range(count):
+        for r in range(held):
+            column[r] = K[r, held + e]
+        left_solve(D, kept, held, column, 0)
+        reaction[:, e] = column
+    S = np.empty((count, count))
+    free_speed = np.empty(count)
+    for e in range(count):
+        free_speed[e] = speeds[held + e]
+        for r in range(held):
+            free_speed[e] -= reaction[r, e] * speeds[r]
+        for k in range(count):
+            S[e, k] = K[held + e, held + k]
+            for r in range(held):
+                S[e, k] -= K[held + e, r] * reaction[r, k]
+    return held, S, free_speed, reaction, places, rows, row_joint
 
 
 @njit
-def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orientation,
-                 inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity):  # fmt: skip
-    """The motor row's velocity and effective mass with its joint's own rows held, and the
-    joint rows' reaction per unit motor impulse: the motor turns a hinged body about the
-    hinge (its inertia about the axis through the anchor), not about its own centre."""
-    A = np.empty((count, count))
-    coupling_block(ints, np.full(count, j), rows, moved, 0, count, 0, count, A)
-    speeds = np.empty(count)
+def _row_speeds(rows, row_joint, count, ints, frozen, orientation, P, L, inverse_mass,
+                inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity):  # fmt: skip
+    """J v of rows[:count]: each row's velocity at the bodies' momenta (a frozen body's the
+    velocity set for it: zero, or a kinematic body's)."""
+    speeds = np.zeros(count)
     for k in range(count):
-        speeds[k] = 0.0
+        j = row_joint[k]
         for side in range(2):
             body = ints[j, BODY_A + side]
             if body < 0:
                 continue
             sign = 1.0 if side == 0 else -1.0
             if frozen[body]:
-                # a kinematic body moves at its set velocity (a static one's is zero)
                 for c in range(3):
                     speeds[k] += sign * rows[k, c] * kinematic_velocity[body, c]
                     speeds[k] += rows[k, 3 + 3 * side + c] * kinematic_angular_velocity[body, c]
@@ -224,23 +290,26 @@ def _held_motion(j, ints, frozen, count, rows, moved, P, L, inverse_mass, orient
             for c in range(3):
                 speeds[k] += sign * rows[k, c] * P[body, c] * inverse_mass[body]
                 speeds[k] += rows[k, 3 + 3 * side + c] * w[c]
-    held = count - 1
-    reaction = np.zeros(count)
-    velocity, mass_inverse = speeds[0], A[0, 0]
-    if held > 0:
-        Acc = A[1:, 1:].copy()
-        kept = lu_in_place(Acc, held)
-        x = A[1:, 0].copy()
-        left_solve(Acc, kept, held, x, 0)
-        y = speeds[1:].copy()
-        left_solve(Acc, kept, held, y, 0)
-        for k in range(held):
-            reaction[k + 1] = x[k]
-            mass_inverse -= A[0, k + 1] * x[k]
-            velocity -= A[0, k + 1] * y[k]
-    if not mass_inverse > 0.0:
-        return velocity, 0.0, reaction
-    return velocity, 1.0 / mass_inverse, reaction
+    return speeds
+
+
+@njit
+def _braked_masses(S, count):
+    """Each axis row's effective mass with the other axis rows held too, (S^-1)_ee: what a
+    servo turns when the other joints' servos hold theirs, the most it can meet, which sets
+    its braking; 0 where S has no inverse (its own 1 / S_ee then stands)."""
+    D = S.copy()
+    kept = lu_in_place(D, count)
+    out = np.zeros(count)
+    unit = np.empty(count)
+    for e in range(count):
+        if not kept[e]:
+            continue
+        for k in range(count):
+            unit[k] = 1.0 if k == e else 0.0
+        left_solve(D, kept, count, unit, 0)
+        out[e] = unit[e]
+    return out
 
 
 @njit
@@ -259,25 +328,28 @@ def _push(j, lam, row, ints, frozen, linear_momentum, angular_momentum, impulse)
 
 
 @njit
-def _servo_speed(h, kind, f, error, mass):
+def _servo_speed(h, kind, f, error, moved):
     """The rate a servo asks for its position ``error``: the one that closes it within the
-    substep, but no more than its most speed, no faster than it can still stop from with
-    its capped force (sqrt(2 a |e|) for the deceleration a = cap / effective mass: a capped
-    servo that only brakes on arriving overshoots and rings), and, for a hinge, no more
-    than ``_SERVO_TURN`` per substep (the joint's projection follows a turn of that size;
-    a rate that grew as 1 / h would defeat the substeps a failed projection takes again)."""
+    substep, but no more than its most speed, no faster than it can still stop from
+    (sqrt(2 a |e|) for the deceleration a that half its cap gives what it moves, ``moved``:
+    the other half is left for the loads the cap also carries, gravity and the rest of the
+    mechanism; a capped servo that only brakes on arriving overshoots and rings), and, for
+    a hinge, no more than ``_SERVO_TURN`` per substep (the joint's projection follows a turn
+    of that size; a rate that grew as 1 / h would defeat the substeps a failed projection
+    takes again)."""
     most = f[MOTOR_SPEED]
     if f[MOTOR_MAX] < math.inf:
-        most = min(most, math.sqrt(2.0 * f[MOTOR_MAX] / mass * abs(error)))
+        most = min(most, math.sqrt(f[MOTOR_MAX] / moved * abs(error)))
     if kind == REVOLUTE:
         most = min(most, _SERVO_TURN / h)
     return min(max(error / h, -most), most)
 
 
 @njit
-def _wanted(h, kind, f, place, velocity, mass, applied):
+def _wanted(h, kind, f, place, velocity, mass, moved, applied):
     """The impulse a velocity, position or servo motor adds this sweep (before its cap),
-    for its row's velocity now and effective mass, having applied ``applied`` this substep."""
+    for its row's velocity now and effective mass, having applied ``applied`` this substep;
+    ``moved``, the most inertia a servo can meet (``_braked_masses``), sets its braking."""
     code = int(f[MOTOR])
     if code == VELOCITY_MOTOR:
         return mass * (f[MOTOR_TARGET] - velocity)
@@ -285,7 +357,7 @@ def _wanted(h, kind, f, place, velocity, mass, applied):
     if kind == REVOLUTE:  # the short way round
         error -= 2.0 * math.pi * round(error / (2.0 * math.pi))
     if code == SERVO_MOTOR:
-        return mass * (_servo_speed(h, kind, f, error, mass) - velocity)
+        return mass * (_servo_speed(h, kind, f, error, moved) - velocity)
     return spring_impulse(h, f[MOTOR_STIFFNESS], f[MOTOR_DAMPING], error, velocity, mass,
                           applied)  # fmt: skip
 
