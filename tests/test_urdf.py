@@ -232,6 +232,76 @@ def test_position_control_settles_the_iiwa_on_a_distant_pose():
     assert np.abs(ours[-1]).max() < 1e-3
 
 
+@pytest.mark.parametrize("name", ["kuka_iiwa/model.urdf", "r2d2.urdf"])
+def test_set_joint_positions_places_the_links_as_pybullets_reset(name):
+    """Random joint positions and rates set on the iiwa (revolute joints) and r2d2
+    (continuous wheels and a prismatic gripper; fixed links kept apart): every link's
+    centre of mass, velocity and angular velocity equal pybullet's getLinkState after
+    resetJointState, the joints read back what was set and hold exactly."""
+    pybullet = pytest.importorskip("pybullet")
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, _data(name), fixed_base=True, merge_fixed_links=False)
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-1.0, 1.0, len(robot.joints)) * 0.5
+    rates = rng.uniform(-1.0, 1.0, len(robot.joints))
+    robot.set_joint_positions(q, rates)
+    np.testing.assert_allclose(robot.joint_positions(), q, atol=1e-12)
+    np.testing.assert_allclose(robot.joint_velocities(), rates, atol=1e-12)
+    assert np.abs(world.joints["gap"]).max() < 1e-12
+    assert np.abs(world.joints["angle_error"]).max() < 1e-12
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        body = pybullet.loadURDF(
+            str(_data(name)), useFixedBase=True, flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+            physicsClientId=client,
+        )  # fmt: skip
+        infos = [pybullet.getJointInfo(body, j, physicsClientId=client)
+                 for j in range(pybullet.getNumJoints(body, physicsClientId=client))]  # fmt: skip
+        by_name = {info[1].decode(): info[0] for info in infos}
+        for k, joint in enumerate(robot.joint_names):
+            pybullet.resetJointState(body, by_name[joint], q[k], rates[k],
+                                     physicsClientId=client)  # fmt: skip
+        compared = 0
+        for info in infos:
+            link = info[12].decode()
+            state = pybullet.getLinkState(body, info[0], computeLinkVelocity=1,
+                                          physicsClientId=client)  # fmt: skip
+            b = robot.bodies[link]
+            if world.bodies.static[b]:
+                continue
+            np.testing.assert_allclose(world.position(b), state[0], atol=1e-9)
+            np.testing.assert_allclose(world.linear_velocity(b), state[6], atol=1e-9)
+            np.testing.assert_allclose(world.angular_velocity(b), state[7], atol=1e-9)
+            compared += 1
+    finally:
+        pybullet.disconnect(client)
+    assert compared >= len(robot.joints)
+
+
+def test_joints_are_set_and_driven_by_name():
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"), fixed_base=True)
+    robot.set_joint_positions(np.full(7, 0.3))
+    robot.set_joint_positions({"lbr_iiwa_joint_4": -0.5, 1: 0.1})
+    np.testing.assert_allclose(robot.joint_positions(), [0.3, 0.1, 0.3, -0.5, 0.3, 0.3, 0.3],
+                               atol=1e-12)  # fmt: skip
+    assert robot.joint_index("lbr_iiwa_joint_7") == 6
+    held = robot.joint_positions()
+    robot.set_joint_targets(dict(zip(robot.joint_names, held, strict=True)))
+    robot.set_joint_targets({"lbr_iiwa_joint_2": 0.2})  # the others keep their targets
+    world.step(240)
+    held[1] = 0.2
+    np.testing.assert_allclose(robot.joint_positions(), held, atol=1e-3)
+    with pytest.raises(ValueError, match="no movable joint 'elbow'"):
+        robot.set_joint_positions({"elbow": 0.0})
+    with pytest.raises(ValueError, match="must be 7 values"):
+        robot.set_joint_positions([0.0, 1.0])
+    with pytest.raises(ValueError, match="must be finite"):
+        robot.set_joint_targets({"lbr_iiwa_joint_1": math.nan})
+    with pytest.raises(ValueError, match="names a joint twice"):
+        robot.set_joint_positions({"lbr_iiwa_joint_1": 0.0, 0: 1.0})
+
+
 TWO_LINKS = """<?xml version="1.0"?>
 <robot name="bad">
   <link name="base">

@@ -256,3 +256,46 @@ def test_an_orientation_of_any_finite_size_is_normalised(scale):
     np.testing.assert_allclose(world.orientations[body], [0, 0, 2**-0.5, 2**-0.5], atol=1e-15)
     world.step()
     assert np.all(np.isfinite(world.orientations))
+
+
+def test_set_body_state_puts_a_body_where_and_how_fast_it_is_told():
+    """A box tumbling through the air is put elsewhere with a new velocity: from then on it
+    moves exactly as a box added there with that state does; a new orientation keeps its
+    angular velocity, and the static floor is refused by name."""
+    world = rbd.World(dt=0.01, gravity=(0, 0, -9.81))
+    floor = world.add_body(rbd.shapes.box((4, 4, 0.2)), static=True, position=(0, 0, -0.1))
+    shape = rbd.shapes.box((0.2, 0.3, 0.5))
+    box = world.add_body(shape, mass=2.0, position=(0, 0, 1.0), angular_velocity=(1, 2, 3))
+    world.step(10)
+    turned = Rotation.from_euler("xyz", [0.3, -0.2, 0.9]).as_quat()
+    spin = world.angular_velocity(box)
+    world.set_body_state(box, position=(1.0, 2.0, 3.0), orientation=turned, velocity=(0.5, 0, 0))
+    np.testing.assert_allclose(world.position(box), [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(world.linear_velocity(box), [0.5, 0.0, 0.0])
+    np.testing.assert_allclose(world.angular_velocity(box), spin, atol=1e-12)
+    fresh = rbd.World(dt=0.01, gravity=(0, 0, -9.81))
+    twin = fresh.add_body(shape, mass=2.0, position=(1.0, 2.0, 3.0), orientation=turned,
+                          linear_velocity=(0.5, 0, 0), angular_velocity=spin)  # fmt: skip
+    world.step(20)
+    fresh.step(20)
+    np.testing.assert_allclose(world.position(box), fresh.position(twin), atol=1e-12)
+    np.testing.assert_allclose(world.orientation(box), fresh.orientation(twin), atol=1e-12)
+    world.set_body_state(box, angular_velocity=(0.0, 0.0, 0.0))
+    np.testing.assert_allclose(world.angular_momentum(box), 0.0)
+    with pytest.raises(ValueError, match="is static: set_body_state sets the state of dynamic"):
+        world.set_body_state(floor, position=(0, 0, 0))
+    with pytest.raises(ValueError, match="velocity"):
+        world.set_body_state(box, velocity=(np.nan, 0, 0))
+
+
+def test_set_body_state_wakes_a_sleeping_body_and_finds_its_contacts_again():
+    """A box asleep on the floor, lifted and dropped from 0.5 m, falls and lands again."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81), sleeping=True)
+    world.add_body(rbd.shapes.box((4, 4, 0.2)), static=True, position=(0, 0, -0.1))
+    box = world.add_body(rbd.shapes.box((0.2, 0.2, 0.2)), position=(0, 0, 0.1))
+    world.step(2 * 240)
+    assert world.sleeping[box]
+    world.set_body_state(box, position=(0, 0, 0.6))
+    assert not world.sleeping[box]
+    world.step(240)
+    assert world.position(box)[2] == pytest.approx(0.1, abs=2e-3)

@@ -370,4 +370,5 @@ def _build(world, plan: _Plan, self_collision: bool, name: str) -> Robot:
         [n for _, n, _, _ in plan.movable],
         [f for _, _, f, _ in plan.movable],
         [w for _, _, _, w in plan.movable],
+        joints,
     )  # fmt: skip

@@ -1,12 +1,15 @@
 """A loaded URDF model's joint-space view: its bodies by link, its movable joints, their
-state, and motor targets or torques on them (pybullet's getJointState and
-setJointMotorControl2)."""
+state read and set, and motor targets or torques on them (pybullet's getJointState,
+resetJointState and setJointMotorControl2). Joints are named by index (URDF order of the
+movable joints) or by their URDF names."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from thesis_rbd.spatial.quaternion import quat_multiply, quat_rotate
 
 __all__ = ["Robot"]
 
@@ -30,9 +33,18 @@ class Robot:
     effort_limits, velocity_limits : (k,) ndarray
         Each movable joint's URDF ``<limit effort velocity>`` (N m or N, rad/s or m/s); inf
         where the file gives none (or zero, which URDF uses for "not set").
+    tree_joints : list of int
+        Every world joint the model added (its fixed joints too), each after the joint that
+        holds its parent link.
+
+    Every method taking one value per joint takes an array in ``joint_names`` order, or a
+    dict from joint names (or indices) to values that sets only those joints.
     """
 
-    def __init__(self, world, name, bodies, joints, joint_names, effort_limits, velocity_limits):
+    def __init__(
+        self, world, name, bodies, joints, joint_names, effort_limits, velocity_limits,
+        tree_joints,
+    ):  # fmt: skip
         self.world = world
         self.name = name
         self.bodies = dict(bodies)
@@ -40,18 +52,47 @@ class Robot:
         self.joint_names = list(joint_names)
         self.effort_limits = np.asarray(effort_limits, dtype=float)
         self.velocity_limits = np.asarray(velocity_limits, dtype=float)
+        self.tree_joints = list(tree_joints)
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, {len(self.bodies)} links, {len(self.joints)} joints)"
 
-    def _per_joint(self, values, name: str) -> np.ndarray:
-        values = np.asarray(values, dtype=float)
-        if values.shape != (len(self.joints),) or not np.all(np.isfinite(values)):
-            raise ValueError(
-                f"{name} must be {len(self.joints)} finite values (one per movable joint, in "
-                f"joint_names order), got shape {values.shape}"
-            )
-        return values
+    def joint_index(self, joint) -> int:
+        """The index (in ``joint_names`` order) of a movable joint given by name or index."""
+        if isinstance(joint, str):
+            if joint not in self.joint_names:
+                raise ValueError(
+                    f"robot {self.name!r} has no movable joint {joint!r}; its movable joints "
+                    f"are {self.joint_names}"
+                )
+            return self.joint_names.index(joint)
+        if isinstance(joint, (int, np.integer)) and 0 <= joint < len(self.joints):
+            return int(joint)
+        raise ValueError(
+            f"a joint is a name in {self.joint_names} or an index below {len(self.joints)}, "
+            f"got {joint!r}"
+        )
+
+    def _per_joint(self, values, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """(indices, values) of a per-joint argument: all joints for an array, the named
+        ones for a dict."""
+        if isinstance(values, dict):
+            indices = np.array([self.joint_index(k) for k in values], dtype=np.int64)
+            values = np.array(list(values.values()), dtype=float)
+            if len(set(indices.tolist())) != len(indices):
+                raise ValueError(f"{name} names a joint twice")
+        else:
+            values = np.asarray(values, dtype=float)
+            indices = np.arange(len(self.joints))
+            if values.shape != (len(self.joints),):
+                raise ValueError(
+                    f"{name} must be {len(self.joints)} values (one per movable joint, in "
+                    f"joint_names order) or a dict of joint names to values, got shape "
+                    f"{values.shape}"
+                )
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"{name} must be finite, got {values.tolist()}")
+        return indices, values
 
     def joint_positions(self) -> np.ndarray:
         """(k,) each movable joint's angle (rad, in (-pi, pi]) or travel (m) from where it
@@ -71,42 +112,119 @@ class Robot:
         values[generic] = axes[np.asarray(self.joints)[generic], 5]
         return values
 
-    def _check_drivable(self) -> None:
-        kinds = self.world.joints["kind"][self.joints]
+    def _check_drivable(self, indices, what: str = "take no motor") -> None:
+        kinds = self.world.joints["kind"][np.asarray(self.joints)[indices]]
         if np.any(kinds == "generic"):
-            planar = [n for n, k in zip(self.joint_names, kinds, strict=True) if k == "generic"]
-            raise ValueError(f"planar joints {planar} take no motor yet")
+            planar = [self.joint_names[i] for i, k in zip(indices, kinds, strict=True)
+                      if k == "generic"]  # fmt: skip
+            raise ValueError(f"planar joints {planar} {what} yet")
+
+    def set_joint_positions(self, positions, velocities=None) -> None:
+        """Put the joints at these positions (rad or m) and rates (rad/s or m/s; zero where
+        not given), moving every link below them there at once: pybullet's resetJointState.
+
+        The base keeps its pose and velocity; each link is placed from its parent's through
+        its joint (its frame's rest orientation turned by the joint's angle, or moved along
+        its axis), so every joint holds exactly, and it moves with its parent's velocity
+        plus its joint's rate. Joints a dict leaves out keep their positions and rates.
+        """
+        indices, values = self._per_joint(positions, "positions")
+        self._check_drivable(indices, "cannot be set")
+        q = self.joint_positions()
+        rates = self.joint_velocities()
+        q[indices] = values
+        if velocities is None:
+            rates[indices] = 0.0
+        else:
+            rate_indices, rate_values = self._per_joint(velocities, "velocities")
+            self._check_drivable(rate_indices, "cannot be set")
+            rates[rate_indices] = rate_values
+        for body, pose in _placed_links(self.world, self.tree_joints, self.joints, q, rates):
+            self.world.set_body_state(body, *pose)
 
     def set_joint_targets(self, positions) -> None:
         """Hold every movable joint at a target position (rad or m) with a servo motor,
         capped by the joint's URDF effort (N m or N) and velocity (rad/s or m/s) limits:
         pybullet's POSITION_CONTROL, as a constraint rather than a gain."""
-        positions = self._per_joint(positions, "positions")
-        self._check_drivable()
-        for j, q, f, w in zip(
-            self.joints, positions, self.effort_limits, self.velocity_limits, strict=True
-        ):
-            self.world.set_motor(j, servo=float(q), max_force=float(f), max_velocity=float(w))
+        indices, positions = self._per_joint(positions, "positions")
+        self._check_drivable(indices)
+        for i, q in zip(indices, positions, strict=True):
+            self.world.set_motor(
+                self.joints[i], servo=float(q), max_force=float(self.effort_limits[i]),
+                max_velocity=float(self.velocity_limits[i]),
+            )  # fmt: skip
 
     def set_joint_velocity_targets(self, velocities) -> None:
         """Drive every movable joint's rate towards a target (rad/s or m/s) within its URDF
         effort limit: pybullet's VELOCITY_CONTROL."""
-        velocities = self._per_joint(velocities, "velocities")
-        self._check_drivable()
-        for j, v, f in zip(self.joints, velocities, self.effort_limits, strict=True):
-            self.world.set_motor(j, velocity=float(v), max_force=float(f))
+        indices, velocities = self._per_joint(velocities, "velocities")
+        self._check_drivable(indices)
+        for i, v in zip(indices, velocities, strict=True):
+            self.world.set_motor(
+                self.joints[i], velocity=float(v), max_force=float(self.effort_limits[i])
+            )
 
     def apply_joint_torques(self, torques) -> None:
         """Push every movable joint with a torque (N m) or force (N) about / along its axis,
         every step until changed: pybullet's TORQUE_CONTROL (not capped by the effort limit,
         as pybullet does not)."""
-        torques = self._per_joint(torques, "torques")
-        self._check_drivable()
-        for j, t in zip(self.joints, torques, strict=True):
-            self.world.set_motor(j, torque=float(t))
+        indices, torques = self._per_joint(torques, "torques")
+        self._check_drivable(indices)
+        for i, t in zip(indices, torques, strict=True):
+            self.world.set_motor(self.joints[i], torque=float(t))
 
 
 def limit_or_inf(value) -> float:
     """A URDF effort or velocity limit as a motor cap: absent or zero (URDF's "not set")
     means uncapped."""
     return math.inf if value is None or not value > 0.0 else float(value)
+
+
+def _placed_links(world, tree_joints, movable, q, rates):
+    """(body, (position, orientation, velocity, angular_velocity)) of each link below a
+    joint, placed from its parent's pose and velocity through the joint at ``q`` / ``rates``
+    (one per ``movable`` joint; the fixed joints at zero), parents first."""
+    frames = world.joint_frames
+    joints = world.joints
+    value = dict(zip(movable, q, strict=True))
+    rate = dict(zip(movable, rates, strict=True))
+    state = {}
+
+    def current(body):
+        if body not in state:
+            state[body] = (
+                world.position(body), world.orientation(body),
+                world.linear_velocity(body), world.angular_velocity(body),
+            )  # fmt: skip
+        return state[body]
+
+    placed = []
+    for j in tree_joints:
+        child, parent = frames["bodies"][j]
+        if parent < 0:
+            continue  # the base, welded to the world where it is
+        x_p, q_p, v_p, w_p = current(parent)
+        kind = joints["kind"][j]
+        arm_child, arm_parent = frames["anchors"][j]
+        axis = quat_rotate(q_p, frames["axes"][j][1])
+        anchor = x_p + quat_rotate(q_p, arm_parent)
+        turn = np.array([0.0, 0.0, 0.0, 1.0])
+        travel = 0.0
+        angle_rate = travel_rate = 0.0
+        if kind == "revolute":
+            half = 0.5 * value[j]
+            turn = np.concatenate([np.sin(half) * axis, [np.cos(half)]])
+            angle_rate = rate[j]
+        elif kind == "prismatic":
+            travel = value[j]
+            travel_rate = rate[j]
+        q_c = quat_multiply(turn, quat_multiply(q_p, frames["rest_orientations"][j]))
+        x_c = anchor + travel * axis - quat_rotate(q_c, arm_child)
+        w_c = w_p + angle_rate * axis
+        v_c = (
+            v_p + np.cross(w_p, x_c - x_p) + angle_rate * np.cross(axis, x_c - anchor)
+            + travel_rate * axis
+        )  # fmt: skip
+        state[child] = (x_c, q_c, v_c, w_c)
+        placed.append((int(child), state[child]))
+    return placed

@@ -39,7 +39,7 @@ from typing import NoReturn
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array, as_positive_scalar, as_unit_quaternion
+from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.collision.contact_set import ContactSet
 from thesis_rbd.collision.pipeline import CollisionPipeline, some_pair_may_collide
 from thesis_rbd.dynamics.bodies import BodyArrays
@@ -63,6 +63,7 @@ from thesis_rbd.world.joint_api import WorldJoints
 from thesis_rbd.world.readout import WorldReadout
 from thesis_rbd.world.stage_names import STAGE_NAMES
 from thesis_rbd.world.stage_profile import StageProfile
+from thesis_rbd.world.state_api import WorldStateSetters
 from thesis_rbd.world.step_kernel import (
     BOUNDS,
     BROAD_PHASE,
@@ -155,7 +156,7 @@ class _StepStart:
     sleep: tuple | None = None
 
 
-class World(WorldReadout, WorldJoints):
+class World(WorldReadout, WorldJoints, WorldStateSetters):
     """A rigid-body world stepped at a fixed time step.
 
     Parameters
@@ -374,63 +375,6 @@ class World(WorldReadout, WorldJoints):
         self.applied_forces.add(body, force, arm, remaining)
         self._sleep.wake(np.array([body]))
         self._plan_stages()
-
-    def set_kinematic(
-        self, body: int, position=None, orientation=None, velocity=None, angular_velocity=None
-    ) -> None:
-        """Move a kinematic body, or change its velocity, between steps.
-
-        Parameters
-        ----------
-        body : int
-            A kinematic body's index.
-        position : (3,) array_like, optional
-            Its centre of mass's new world position (m).
-        orientation : (4,) array_like, optional
-            Its new (x, y, z, w) orientation; normalised.
-        velocity, angular_velocity : (3,) array_like, optional
-            Its new v (m/s) and w (rad/s, about its centre of mass), world frame, which each
-            step from now moves it by.
-
-        Any argument left None keeps the body's current value. A new pose puts the body
-        there at once (a jump, with no velocity of its own: a body driven along a path moves
-        smoothly by its velocity), and the contacts are found again there before the next
-        step, as they are when the body starts to move, so that the bodies it touches wake.
-        """
-        body = self._check_body(body)
-        b = self.bodies
-        if not b.kinematic[body]:
-            raise ValueError(
-                f"body {body} ({b.names[body]!r}) is not kinematic: set_kinematic moves the "
-                "bodies added with kinematic=True"
-            )
-        x = None if position is None else as_finite_array(position, "position", shape=(3,))
-        q = None if orientation is None else as_unit_quaternion(orientation)
-        v = None if velocity is None else as_finite_array(velocity, "velocity", shape=(3,))
-        w = (
-            None
-            if angular_velocity is None
-            else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
-        )
-        was_moving = bool(self._moving_kinematic()[body])
-        if x is not None:
-            b.position[body] = x
-        if q is not None:
-            b.orientation[body] = q
-        if v is not None:
-            b.kinematic_velocity[body] = v
-        if w is not None:
-            b.kinematic_angular_velocity[body] = w
-        s = self._state
-        s.start_position[body], s.start_orientation[body] = b.position[body], b.orientation[body]
-        jumped = x is not None or q is not None
-        started = not was_moving and bool(self._moving_kinematic()[body])
-        if jumped or started:
-            # the contacts where the body is now, which wake the islands it touches; every
-            # fat box refitted around it
-            s.refit_all = True
-            self._contacts_stale = bool(self._planned[CONTACTS])
-        self._state = dataclasses.replace(s, **self._sleep_fields())
 
     @property
     def contact_settings(self) -> ContactSettings:
