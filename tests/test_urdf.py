@@ -302,6 +302,109 @@ def test_joints_are_set_and_driven_by_name():
         robot.set_joint_positions({"lbr_iiwa_joint_1": 0.0, 0: 1.0})
 
 
+def test_iiwa_joint_damping_against_pybullet_at_a_sixteenth_of_the_step():
+    """The iiwa falls from a bent pose for 2 s with its URDF joint damping (0.5 N m s/rad),
+    no control, at dt = 1/240. pybullet at dt / 16 is the reference (its links' damping
+    zeroed, its default motors off); per joint, our largest angle difference from it is at
+    most twice pybullet's own at dt (its discretisation error)."""
+    pybullet = pytest.importorskip("pybullet")
+    path = _data("kuka_iiwa/model.urdf")
+    start = np.array([0.3, 0.8, -0.4, -1.0, 0.5, 0.9, 0.2])
+    steps = 2 * 240
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, path, fixed_base=True)
+    robot.set_joint_positions(start)
+    ours = []
+    for _ in range(steps):
+        world.step()
+        ours.append(robot.joint_positions())
+
+    def peer(substeps):
+        client = pybullet.connect(pybullet.DIRECT)
+        try:
+            pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+            pybullet.setTimeStep(1 / 240 / substeps, physicsClientId=client)
+            arm = pybullet.loadURDF(str(path), useFixedBase=True, physicsClientId=client,
+                                    flags=pybullet.URDF_USE_INERTIA_FROM_FILE)  # fmt: skip
+            for j in range(7):
+                pybullet.changeDynamics(arm, j, linearDamping=0, angularDamping=0,
+                                        physicsClientId=client)  # fmt: skip
+                pybullet.setJointMotorControl2(arm, j, pybullet.VELOCITY_CONTROL, force=0,
+                                               physicsClientId=client)  # fmt: skip
+                pybullet.resetJointState(arm, j, start[j], physicsClientId=client)
+            out = []
+            for _ in range(steps):
+                for _ in range(substeps):
+                    pybullet.stepSimulation(physicsClientId=client)
+                states = pybullet.getJointStates(arm, range(7), physicsClientId=client)
+                out.append([state[0] for state in states])
+            return np.array(out)
+        finally:
+            pybullet.disconnect(client)
+
+    reference = peer(16)
+    ours_error = np.abs(np.array(ours) - reference).max(axis=0)
+    peer_error = np.abs(peer(1) - reference).max(axis=0)
+    print("iiwa damped fall, largest angle difference from pybullet at dt/16 (rad):")
+    print("  ours at dt    ", np.round(ours_error, 4))
+    print("  pybullet at dt", np.round(peer_error, 4))
+    assert np.all(ours_error <= 2.0 * peer_error)
+
+
+@pytest.mark.parametrize("name, height", [("franka_panda/panda.urdf", 0.5), ("r2d2.urdf", 1.0)])
+def test_panda_and_r2d2_fall_onto_a_floor(name, height):
+    """Free bases dropped on a floor: 2 s of contacts, joints held within 1 mm (the
+    acceptance bound), nothing non-finite, no link's centre below the floor's top."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    world.add_body(rbd.shapes.box((10, 10, 0.2)), static=True, position=(0, 0, -0.1))
+    robot = rbd.load_urdf(world, _data(name), base_position=(0, 0, height))
+    gap = 0.0
+    for _ in range(2 * 240):
+        world.step()
+        gap = max(gap, np.abs(world.joints["gap"]).max())
+    print(f"{name}: largest joint gap over 2 s {gap:.3g} m")
+    assert gap < 1e-3
+    assert np.all(np.isfinite(world.positions))
+    moving = [b for b in set(robot.bodies.values()) if not world.bodies.static[b]]
+    assert min(world.positions[b, 2] for b in moving) > 0.0
+
+
+def test_a_mimic_joint_follows_its_leader():
+    """Panda's second finger mimics the first (multiplier 1): targets and resets given for
+    the leader set it too, and a dict naming it alone is refused."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, -9.81))
+    robot = rbd.load_urdf(world, _data("franka_panda/panda.urdf"), fixed_base=True)
+    assert robot.mimics["panda_finger_joint2"][0] == "panda_finger_joint1"
+    robot.set_joint_positions({"panda_finger_joint1": 0.02})
+    finger = robot.joint_index("panda_finger_joint2")
+    assert robot.joint_positions()[finger] == pytest.approx(0.02, abs=1e-12)
+    robot.set_joint_targets(robot.joint_positions() + np.where(np.arange(9) >= 7, 0.01, 0.0))
+    world.step(240)
+    assert robot.joint_positions()[finger] == pytest.approx(0.03, abs=1e-4)
+    with pytest.raises(
+        ValueError, match=r"mimics 'panda_finger_joint1'.*set 'panda_finger_joint1'"
+    ):
+        robot.set_joint_targets({"panda_finger_joint2": 0.0})
+
+
+def test_a_hinge_whose_limits_reach_past_pi_reads_in_urdf_terms():
+    """Panda's joint 6 turns from -0.0873 to 3.8223 rad: its world joint's zero is put
+    mid-range (add_joint's ref), and the Robot reads and sets it in the file's terms; a
+    servo asked past the upper limit stops at it."""
+    world = rbd.World(dt=1 / 240, gravity=(0, 0, 0))
+    robot = rbd.load_urdf(world, _data("franka_panda/panda.urdf"), fixed_base=True)
+    six = robot.joint_index("panda_joint6")
+    assert robot.joint_positions()[six] == pytest.approx(0.0, abs=1e-12)
+    robot.set_joint_positions({"panda_joint6": 3.5})
+    assert robot.joint_positions()[six] == pytest.approx(3.5, abs=1e-12)
+    robot.set_joint_targets({"panda_joint6": 3.7})
+    world.step(240)
+    assert robot.joint_positions()[six] == pytest.approx(3.7, abs=1e-3)
+    robot.set_joint_targets({"panda_joint6": 4.2})
+    world.step(240)
+    assert robot.joint_positions()[six] == pytest.approx(3.8223, abs=2e-3)
+
+
 TWO_LINKS = """<?xml version="1.0"?>
 <robot name="bad">
   <link name="base">

@@ -61,6 +61,8 @@ one for each limited axis.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -132,6 +134,26 @@ def _grouped(group, count, items) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(group, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(group, minlength=count))])
     return start.astype(np.int64), items[order].astype(np.int64)
+
+
+def _ref(kind: str, ref) -> float:
+    """A hinge's angle now (``add_joint``'s ``ref``), checked: a finite float, 0 for every
+    other kind."""
+    try:
+        value = float(ref)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not math.isfinite(value):
+        raise ValueError(f"ref must be a finite angle (rad), got {ref!r}")
+    if value != 0.0 and kind != "revolute":
+        raise ValueError(f"ref is a hinge's angle now: revolute joints only, not {kind!r}")
+    return value
+
+
+def _turn(axis, angle: float) -> np.ndarray:
+    """(x, y, z, w) turn by ``angle`` about the unit ``axis``."""
+    half = 0.5 * angle
+    return np.concatenate([math.sin(half) * np.asarray(axis), [math.cos(half)]])
 
 
 def _limits(kind: str, limits) -> tuple[float, float, float]:
@@ -487,7 +509,10 @@ class JointSet:
         row[AXIS_B : AXIS_B + 3] = quat_rotate(to_b, axis)
         row[NORMAL_B : NORMAL_B + 3] = quat_rotate(to_b, normal)
         row[BINORMAL_B : BINORMAL_B + 3] = quat_rotate(to_b, binormal)
-        row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(to_b, q_a)
+        row[RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4] = quat_multiply(
+            _turn(row[AXIS_B : AXIS_B + 3], -_ref(kind, options.get("ref", 0.0))),
+            quat_multiply(to_b, q_a),
+        )
         row[LENGTH] = length
         row[SCALE] = max(bodies.size[a], bodies.size[b] if b >= 0 else 0.0)
         row[LOWER], row[UPPER], row[CONE] = _limits(kind, options.get("limits"))

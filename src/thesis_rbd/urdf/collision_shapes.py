@@ -23,10 +23,19 @@ def _origin(element) -> np.ndarray:
 
 def mesh_path(filename: str, urdf_dir: Path) -> Path:
     """Where a ``<mesh filename=...>`` is: relative to the URDF file's folder, or a
-    ``package://`` or ``file://`` address resolved as yourdfpy does (the folder and its
-    ancestors). Returns the path found, or the plain relative one when none exists."""
+    ``package://`` or ``file://`` address. A ``package://`` address is looked for as pybullet
+    does, its path after ``package://`` (with or without its first part, the package's name)
+    under the URDF's folder and its ancestors; the rest as yourdfpy resolves them. Returns
+    the path found, or yourdfpy's answer when none exists."""
     from yourdfpy.urdf import filename_handler_magic
 
+    if filename.startswith("package://"):
+        rest = Path(filename[len("package://") :])
+        tails = [rest] + ([Path(*rest.parts[1:])] if len(rest.parts) > 1 else [])
+        for folder in (urdf_dir, *urdf_dir.parents):
+            for tail in tails:
+                if (folder / tail).is_file():
+                    return folder / tail
     return Path(filename_handler_magic(filename, dir=str(urdf_dir)))
 
 

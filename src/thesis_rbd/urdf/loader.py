@@ -33,6 +33,10 @@ _PLANAR_AXES = ("free", "free", "locked", "locked", "locked", "free")
 _MARKER_DENSITY = 1000.0
 
 
+# How far beyond +-pi a hinge limit may be written and still mean +-pi (rad)
+_PI_ROUNDING = 1e-3
+
+
 @dataclass
 class _Body:
     """One body to add: a group of links welded together, in its root link's frame."""
@@ -103,7 +107,8 @@ def load_urdf(
         Naming the file and the link or joint, for a file that does not parse, a missing
         mesh file, a moving link without positive mass or with an inertia that is not
         positive definite, a joint axis of zero length, limits a joint cannot take, a mimic
-        joint, or links that do not form one tree. Nothing is added to the world then.
+        joint whose leader is not a movable joint, or links that do not form one tree.
+        Nothing is added to the world then.
 
     Notes
     -----
@@ -111,6 +116,8 @@ def load_urdf(
     its centre of mass and inertia the URDF ``<inertial>`` rotated into that frame; a
     moving link's mesh collides as its convex hull, as pybullet's does. A joint's child
     link is its body_a and its parent body_b, so its position is the URDF joint position.
+    A mimic joint is a movable joint of its own, as pybullet loads it; the ``Robot`` sets
+    its position and target from its leader's (multiplier x leader + offset).
     """
     try:
         import yourdfpy
@@ -143,14 +150,17 @@ def load_urdf(
 @dataclass
 class _Plan:
     """Everything ``load_urdf`` adds, checked: bodies (``add_body`` keywords), joints, the
-    body of every link, the movable joints (plan index, name, effort and velocity caps) and
-    the (child, parent) body pairs of the URDF tree."""
+    body of every link, the movable joints (plan index, name, effort and velocity caps, and
+    the URDF angle at the world joint's zero) and
+    the (child, parent) body pairs of the URDF tree, and each mimic joint's (leader,
+    multiplier, offset)."""
 
     bodies: list[dict]
     joints: list[_Joint]
     link_body: dict[str, int]
-    movable: list[tuple[int, str, float, float]]
+    movable: list[tuple[int, str, float, float, float]]
     tree_pairs: list[tuple[int, int]]
+    mimics: dict[str, tuple[str, float, float]]
 
 
 def _tree_order(robot) -> tuple[str, list]:
@@ -187,15 +197,35 @@ def _tree_order(robot) -> tuple[str, list]:
     return roots[0], order
 
 
+def _mimics(robot) -> dict[str, tuple[str, float, float]]:
+    """Each mimic joint's (leader, multiplier, offset), checked: both joints movable, the
+    leader no mimic itself, the numbers finite."""
+    kinds = {joint.name: joint.type for joint in robot.joints}
+    found = {}
+    for joint in robot.joints:
+        mimic = joint.mimic
+        if mimic is None:
+            continue
+        where = f"joint {joint.name!r} mimics {mimic.joint!r}"
+        if kinds.get(mimic.joint) not in _MOVABLE or joint.type not in _MOVABLE:
+            raise ValueError(f"{where}: a mimic joint and its leader are movable joints")
+        multiplier = 1.0 if mimic.multiplier is None else float(mimic.multiplier)
+        offset = 0.0 if mimic.offset is None else float(mimic.offset)
+        if not (math.isfinite(multiplier) and math.isfinite(offset)):
+            raise ValueError(f"{where}: multiplier and offset must be finite")
+        found[joint.name] = (mimic.joint, multiplier, offset)
+    for name, (leader, _, _) in found.items():
+        if leader in found:
+            raise ValueError(f"joint {name!r} mimics {leader!r}, which mimics another joint")
+    return found
+
+
 def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool) -> _Plan:
     """The bodies and joints a URDF model becomes, checked (see ``load_urdf``)."""
     for joint in robot.joints:
-        if joint.mimic is not None:
-            raise ValueError(
-                f"joint {joint.name!r} mimics {joint.mimic.joint!r}: mimic joints are not supported"
-            )
         if joint.type not in (*_MOVABLE, "fixed", "floating"):
             raise ValueError(f"joint {joint.name!r}: unknown joint type {joint.type!r}")
+    mimics = _mimics(robot)
     root, order = _tree_order(robot)
     links = {link.name: link for link in robot.links}
     masses = {name: link_mass(link) for name, link in links.items()}
@@ -241,9 +271,10 @@ def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool
                 len(joints), joint.name,
                 limit_or_inf(None if limit is None else limit.effort),
                 limit_or_inf(None if limit is None else limit.velocity),
+                -planned.options.get("ref", 0.0),
             ))  # fmt: skip
         joints.append(planned)
-    return _Plan(list(bodies), joints, {k: group_of[k] for k in links}, movable, pairs)
+    return _Plan(list(bodies), joints, {k: group_of[k] for k in links}, movable, pairs, mimics)
 
 
 def _body_arguments(group: _Body, links: dict, urdf_dir: Path, is_root: bool) -> tuple[dict, float]:
@@ -340,11 +371,21 @@ def _joint(joint, child: int, parent: int, frame: np.ndarray) -> _Joint:
         lower, upper = float(limit.lower), float(limit.upper)
         if not lower <= upper:
             raise ValueError(f"joint {joint.name!r}: lower limit {lower} above upper {upper}")
+        if joint.type == "revolute":
+            # pi written to a few digits (3.1416) is pi
+            lower = max(lower, -math.pi) if lower >= -math.pi - _PI_ROUNDING else lower
+            upper = min(upper, math.pi) if upper <= math.pi + _PI_ROUNDING else upper
         if joint.type == "revolute" and not -math.pi <= lower <= upper <= math.pi:
-            raise ValueError(
-                f"joint {joint.name!r}: limits ({lower}, {upper}) reach beyond [-pi, pi], "
-                "which a hinge's angle cannot yet"
-            )
+            if not upper - lower < 2.0 * math.pi:
+                raise ValueError(
+                    f"joint {joint.name!r}: limits ({lower}, {upper}) span a full turn or "
+                    "more, which a hinge's angle cannot tell apart"
+                )
+            # the world joint's zero mid-range (``add_joint``'s ``ref``): its limits then lie
+            # within [-pi, pi], and the Robot adds the offset back to what it reads
+            offset = 0.5 * (lower + upper)
+            options["ref"] = -offset
+            lower, upper = lower - offset, upper - offset
         options["limits"] = (lower, upper)
     kind = "prismatic" if joint.type == "prismatic" else "revolute"
     return _Joint(joint.name, kind, child, parent, anchor, options)
@@ -366,9 +407,11 @@ def _build(world, plan: _Plan, self_collision: bool, name: str) -> Robot:
     return Robot(
         world, name,
         {link: index[g] for link, g in plan.link_body.items()},
-        [joints[k] for k, _, _, _ in plan.movable],
-        [n for _, n, _, _ in plan.movable],
-        [f for _, _, f, _ in plan.movable],
-        [w for _, _, _, w in plan.movable],
+        [joints[k] for k, *_ in plan.movable],
+        [n for _, n, *_ in plan.movable],
+        [f for _, _, f, _, _ in plan.movable],
+        [w for _, _, _, w, _ in plan.movable],
         joints,
+        plan.mimics,
+        [offset for *_, offset in plan.movable],
     )  # fmt: skip

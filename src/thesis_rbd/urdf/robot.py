@@ -36,6 +36,11 @@ class Robot:
     tree_joints : list of int
         Every world joint the model added (its fixed joints too), each after the joint that
         holds its parent link.
+    mimics : dict of str to (str, float, float)
+        Each URDF mimic joint's leader, multiplier and offset: a mimic joint is a movable
+        joint of its own, whose position, rate and targets the methods here set from its
+        leader's (``multiplier * leader + offset``; rates ``multiplier * leader``), whatever an
+        array gives for it; a dict naming it is refused.
 
     Every method taking one value per joint takes an array in ``joint_names`` order, or a
     dict from joint names (or indices) to values that sets only those joints.
@@ -43,7 +48,7 @@ class Robot:
 
     def __init__(
         self, world, name, bodies, joints, joint_names, effort_limits, velocity_limits,
-        tree_joints,
+        tree_joints, mimics=None, offsets=None,
     ):  # fmt: skip
         self.world = world
         self.name = name
@@ -53,6 +58,10 @@ class Robot:
         self.effort_limits = np.asarray(effort_limits, dtype=float)
         self.velocity_limits = np.asarray(velocity_limits, dtype=float)
         self.tree_joints = list(tree_joints)
+        self.mimics = dict(mimics or {})
+        # each joint's URDF position where its world joint reads zero (a hinge whose limits
+        # reach past +-pi has its world zero mid-range); the methods here speak URDF's terms
+        self._offsets = np.zeros(len(self.joints)) if offsets is None else np.asarray(offsets)
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, {len(self.bodies)} links, {len(self.joints)} joints)"
@@ -94,10 +103,27 @@ class Robot:
             raise ValueError(f"{name} must be finite, got {values.tolist()}")
         return indices, values
 
+    def _followed(self, indices, values, offset: bool = True):
+        """(indices, values) with each mimic joint set from its leader (``offset`` False for
+        rates); a mimic joint named on its own is refused."""
+        position = {int(i): float(v) for i, v in zip(indices, values, strict=True)}
+        for mimic, (leader, multiplier, shift) in self.mimics.items():
+            m, k = self.joint_index(mimic), self.joint_index(leader)
+            if k in position:
+                position[m] = multiplier * position[k] + (shift if offset else 0.0)
+            elif m in position:
+                raise ValueError(
+                    f"joint {mimic!r} mimics {leader!r} ({multiplier:g} x {leader!r} + "
+                    f"{shift:g}): set {leader!r} instead"
+                )
+        keys = sorted(position)
+        return np.array(keys, dtype=np.int64), np.array([position[i] for i in keys])
+
     def joint_positions(self) -> np.ndarray:
-        """(k,) each movable joint's angle (rad, in (-pi, pi]) or travel (m) from where it
-        was loaded (the URDF zero configuration); a planar joint's in-plane turn."""
-        return self._readout("position")
+        """(k,) each movable joint's angle (rad, in (-pi, pi], or within a turn of the
+        middle of its limits where they reach past +-pi) or travel (m), in the URDF's terms
+        (zero in its zero configuration); a planar joint's in-plane turn."""
+        return self._readout("position") + self._offsets
 
     def joint_velocities(self) -> np.ndarray:
         """(k,) each movable joint's rate (rad/s or m/s)."""
@@ -128,15 +154,18 @@ class Robot:
         its axis), so every joint holds exactly, and it moves with its parent's velocity
         plus its joint's rate. Joints a dict leaves out keep their positions and rates.
         """
-        indices, values = self._per_joint(positions, "positions")
+        indices, values = self._followed(*self._per_joint(positions, "positions"))
         self._check_drivable(indices, "cannot be set")
         q = self.joint_positions()
         rates = self.joint_velocities()
         q[indices] = values
+        q -= self._offsets
         if velocities is None:
             rates[indices] = 0.0
         else:
-            rate_indices, rate_values = self._per_joint(velocities, "velocities")
+            rate_indices, rate_values = self._followed(
+                *self._per_joint(velocities, "velocities"), offset=False
+            )
             self._check_drivable(rate_indices, "cannot be set")
             rates[rate_indices] = rate_values
         for body, pose in _placed_links(self.world, self.tree_joints, self.joints, q, rates):
@@ -146,18 +175,21 @@ class Robot:
         """Hold every movable joint at a target position (rad or m) with a servo motor,
         capped by the joint's URDF effort (N m or N) and velocity (rad/s or m/s) limits:
         pybullet's POSITION_CONTROL, as a constraint rather than a gain."""
-        indices, positions = self._per_joint(positions, "positions")
+        indices, positions = self._followed(*self._per_joint(positions, "positions"))
         self._check_drivable(indices)
         for i, q in zip(indices, positions, strict=True):
             self.world.set_motor(
-                self.joints[i], servo=float(q), max_force=float(self.effort_limits[i]),
+                self.joints[i], servo=float(q - self._offsets[i]),
+                max_force=float(self.effort_limits[i]),
                 max_velocity=float(self.velocity_limits[i]),
             )  # fmt: skip
 
     def set_joint_velocity_targets(self, velocities) -> None:
         """Drive every movable joint's rate towards a target (rad/s or m/s) within its URDF
         effort limit: pybullet's VELOCITY_CONTROL."""
-        indices, velocities = self._per_joint(velocities, "velocities")
+        indices, velocities = self._followed(
+            *self._per_joint(velocities, "velocities"), offset=False
+        )
         self._check_drivable(indices)
         for i, v in zip(indices, velocities, strict=True):
             self.world.set_motor(

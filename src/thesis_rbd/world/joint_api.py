@@ -36,6 +36,7 @@ class WorldJoints:
         self, kind: str, body_a: int, body_b: int | None, anchor, axis=(0.0, 0.0, 1.0),
         anchor_b=None, limits=None, motor=None, spring=None, damping: float = 0.0,
         friction: float = 0.0, collide: bool = False, name: str | None = None, axes=None,
+        ref: float = 0.0,
     ) -> int:  # fmt: skip
         """Join two bodies (or a body and the world) and return the joint's index.
 
@@ -98,18 +99,24 @@ class WorldJoints:
             [-pi/2, pi/2]; a lone turn the others lock is a hinge's angle, within [-pi, pi].
             URDF's ``planar`` joint is ("free", "free", "locked", "locked", "locked",
             "free") about its normal as z; ``floating`` is six "free" (a free body).
+        ref : float
+            A hinge's angle now (rad, MuJoCo's ``ref``): its zero lies ``ref`` back about
+            +axis, and its limits and targets count from there. A range of limits wider
+            than the turn either side of zero allows (URDF's 0 to 3.8 rad) fits once its
+            zero is put mid-range.
 
         Notes
         -----
         The joint holds the bodies as they are now: its position (a hinge's angle, a
-        slider's travel) is zero now and counts body_a's motion relative to body_b about /
-        along +axis, right-handed. Jointed bodies are integrated by symplectic Euler and
-        held together at the end of every step (``dynamics.joint_solver``).
+        slider's travel) is zero now (a hinge's ``ref``) and counts body_a's motion relative
+        to body_b about / along +axis, right-handed. Jointed bodies are integrated by
+        symplectic Euler and held together at the end of every step
+        (``dynamics.joint_solver``).
         """
         index = self._joints.add(
             kind, body_a, body_b, anchor, axis, anchor_b, collide, name, self.bodies,
             {"limits": limits, "axes": axes, "motor": motor, "spring": spring,
-             "damping": damping, "friction": friction},
+             "damping": damping, "friction": friction, "ref": ref},
         )  # fmt: skip
         joined = self._joints.ints[index, BODY_A : BODY_B + 1]
         self._sleep.wake(joined[joined >= 0])
