@@ -405,6 +405,27 @@ def test_a_hinge_whose_limits_reach_past_pi_reads_in_urdf_terms():
     assert robot.joint_positions()[six] == pytest.approx(3.8223, abs=2e-3)
 
 
+def test_inertia_from_the_shapes_loads_a_placeholder_tensor():
+    """pybullet_data's random objects carry the placeholder inertia diag(1, 1, 0): refused
+    as the file's, loaded with inertia="shapes" as the link's collision mesh taken solid at
+    the file's mass (trimesh's moments of the same hull, scaled to that mass, the oracle)."""
+    import trimesh
+
+    path = _data("random_urdfs/143/143.urdf")
+    with pytest.raises(ValueError, match=r"random_obj_143.*not positive definite"):
+        rbd.load_urdf(rbd.World(), path)
+    world = rbd.World()
+    rbd.load_urdf(world, path, inertia="shapes")
+    hull = trimesh.load(path.parent / "143.obj", force="mesh").convex_hull
+    hull.apply_scale(0.015)
+    expected = hull.moment_inertia * (0.1 / hull.volume)
+    # principal moments: the body frame's axes need not be the mesh's
+    principal = np.linalg.eigvalsh(world.bodies.inertia_body[0])
+    np.testing.assert_allclose(principal, np.linalg.eigvalsh(expected), rtol=1e-6)
+    with pytest.raises(ValueError, match="inertia must be 'file' or 'shapes'"):
+        rbd.load_urdf(rbd.World(), path, inertia="cad")
+
+
 TWO_LINKS = """<?xml version="1.0"?>
 <robot name="bad">
   <link name="base">

@@ -51,6 +51,7 @@ from validation.studies import (
     stability_suite,
     startup,
     step_benchmarks,
+    urdf_survey,
 )
 
 __all__ = ["STUDIES", "get_study"]
@@ -81,6 +82,7 @@ STUDIES: dict[str, ModuleType] = {
         contact_benchmarks,
         step_benchmarks,
         joint_benchmarks,
+        urdf_survey,
         startup,
     )
 }

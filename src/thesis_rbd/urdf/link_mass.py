@@ -24,8 +24,10 @@ class LinkMass:
 NONE = LinkMass(0.0, np.zeros(3), np.zeros((3, 3)))
 
 
-def link_mass(link) -> LinkMass:
-    """A yourdfpy link's ``<inertial>`` in its link frame (all zero where it has none).
+def link_mass(link, with_inertia: bool = True) -> LinkMass:
+    """A yourdfpy link's ``<inertial>`` in its link frame (all zero where it has none);
+    without ``with_inertia``, its mass and centre of mass only (the inertia left zero and
+    unchecked: the body's shapes will give it).
 
     URDF gives the inertia in the inertial frame (``<inertial><origin>``, rotated by R from the
     link frame); in the link frame it is R I R^T about the same centre of mass.
@@ -46,6 +48,8 @@ def link_mass(link) -> LinkMass:
     tensor = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, float)
     R = origin[:3, :3]
     center, inertia = origin[:3, 3].copy(), R @ tensor @ R.T
+    if not with_inertia:
+        return LinkMass(mass, center, np.zeros((3, 3)))
     if mass > 0.0:
         # the checks add_body makes, per link: a welded group's sum could hide a bad one
         try:

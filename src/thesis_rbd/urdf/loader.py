@@ -70,6 +70,7 @@ def load_urdf(
     fixed_base: bool = False,
     merge_fixed_links: bool = True,
     self_collision: bool = False,
+    inertia: str = "file",
 ) -> Robot:
     """Add a URDF model's links and joints to a world, in its zero configuration.
 
@@ -93,6 +94,12 @@ def load_urdf(
     self_collision : bool
         Let the model's links collide with each other, except a parent and its child;
         by default none of them do.
+    inertia : {"file", "shapes"}
+        Where each moving body's centre of mass and inertia come from: the links'
+        ``<inertial>`` (the default; pybullet's ``URDF_USE_INERTIA_FROM_FILE``), or its
+        collision shapes taken as solid at the links' summed mass (as pybullet's default
+        computes them from the shapes; files whose inertia tensors are placeholders, such
+        as pybullet_data's ``random_urdfs`` with ``izz = 0``, load this way).
 
     Returns
     -------
@@ -133,6 +140,8 @@ def load_urdf(
         as_finite_array(base_position, "base_position", shape=(3,)),
         as_unit_quaternion(base_orientation, "base_orientation"),
     )
+    if inertia not in ("file", "shapes"):
+        raise ValueError(f"inertia must be 'file' or 'shapes', got {inertia!r}")
     try:
         model = yourdfpy.URDF.load(
             str(path), build_scene_graph=False, load_meshes=False,
@@ -141,7 +150,7 @@ def load_urdf(
     except Exception as exc:  # yourdfpy and lxml raise many kinds for a malformed file
         raise ValueError(f"{path}: not a URDF file yourdfpy can read: {exc}") from exc
     try:
-        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links)
+        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
     return _build(world, plan, self_collision, model.robot.name)
@@ -220,7 +229,9 @@ def _mimics(robot) -> dict[str, tuple[str, float, float]]:
     return found
 
 
-def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool) -> _Plan:
+def _plan(
+    robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool, inertia: str
+) -> _Plan:
     """The bodies and joints a URDF model becomes, checked (see ``load_urdf``)."""
     for joint in robot.joints:
         if joint.type not in (*_MOVABLE, "fixed", "floating"):
@@ -228,7 +239,7 @@ def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool
     mimics = _mimics(robot)
     root, order = _tree_order(robot)
     links = {link.name: link for link in robot.links}
-    masses = {name: link_mass(link) for name, link in links.items()}
+    masses = {name: link_mass(link, inertia == "file") for name, link in links.items()}
 
     # world pose of every link frame in the zero configuration, and its body
     pose = {root: base}
@@ -250,7 +261,10 @@ def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool
     groups[0].static = fixed_base and combine(groups[0].parts).mass == 0.0
 
     bodies, sizes = zip(
-        *(_body_arguments(group, links, urdf_dir, g == 0) for g, group in enumerate(groups)),
+        *(
+            _body_arguments(group, links, urdf_dir, g == 0, inertia == "file")
+            for g, group in enumerate(groups)
+        ),
         strict=True,
     )
     joints, movable, pairs = [], [], []
@@ -277,10 +291,13 @@ def _plan(robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool
     return _Plan(list(bodies), joints, {k: group_of[k] for k in links}, movable, pairs, mimics)
 
 
-def _body_arguments(group: _Body, links: dict, urdf_dir: Path, is_root: bool) -> tuple[dict, float]:
+def _body_arguments(
+    group: _Body, links: dict, urdf_dir: Path, is_root: bool, inertia_from_file: bool
+) -> tuple[dict, float]:
     """``add_body`` keywords of one group of welded links, checked by a dry run of the body
     builder (so that ``add_body`` cannot fail half-way through a model), and the body's
-    bounding radius about its centre of mass (m)."""
+    bounding radius about its centre of mass (m). Without ``inertia_from_file`` the body's
+    centre of mass and inertia are its shapes' at the links' summed mass."""
     placed = []
     for name, (_, T) in zip(group.links, group.parts, strict=True):
         placed += [
@@ -308,8 +325,10 @@ def _body_arguments(group: _Body, links: dict, urdf_dir: Path, is_root: bool) ->
     kwargs["shapes"] = placed
     if group.static:
         kwargs["static"] = True
-    else:
+    elif inertia_from_file:
         kwargs.update(mass=total.mass, center_of_mass=total.center_of_mass, inertia=total.inertia)
+    else:
+        kwargs["mass"] = total.mass
     try:
         mesh, parts = body_shape(None, placed)
         fields = body_fields(
