@@ -57,17 +57,20 @@ def _attempts(path: str) -> dict:
     import thesis_rbd as rbd
 
     options = {}
+    refusals = []
     while True:
         world = rbd.World()
         try:
             robot = rbd.load_urdf(world, path, **options)
         except ValueError as exc:
+            message = str(exc) if not refusals else str(exc).split(": ", 1)[-1]
+            refusals.append(message + "".join(f" (with {k}={v!r})" for k, v in options.items()))
             if MASSLESS_ROOT in str(exc) and "fixed_base" not in options:
                 options["fixed_base"] = True
             elif "inertia" in str(exc) and "inertia" not in options:
                 options["inertia"] = "shapes"
             else:
-                raise
+                raise ValueError("; then ".join(refusals)) from exc
             continue
         status = "loaded" + "".join(OPTION_NAMES[k] for k in sorted(options))
         return {

@@ -47,9 +47,17 @@ def _mesh(geometry, urdf_dir: Path, convex: bool, link: str) -> TriangleMesh:
         raise ValueError(
             f"link {link!r}: collision mesh {geometry.filename!r} not found (looked for {path})"
         )
+    where = f"link {link!r}: collision mesh {geometry.filename!r}"
     loaded = trimesh.load(path, force="mesh")
+    if len(loaded.vertices) == 0 or not np.all(np.isfinite(loaded.vertices)):
+        raise ValueError(f"{where} has no vertices, or vertices that are not finite numbers")
     if geometry.scale is not None:
-        loaded.apply_scale(np.broadcast_to(np.asarray(geometry.scale, dtype=float), (3,)))
+        scale = np.asarray(geometry.scale, dtype=float).reshape(-1)
+        if scale.size not in (1, 3) or not np.all(np.isfinite(scale)):
+            raise ValueError(
+                f"{where}: scale must be one or three finite numbers, got {scale.tolist()}"
+            )
+        loaded.apply_scale(np.broadcast_to(scale, (3,)))
     # a moving link collides through its mesh's convex hull, as pybullet's default does: the
     # convex path is faster, and a visual-quality mesh is often open or self-intersecting
     return TriangleMesh.from_trimesh(loaded.convex_hull if convex else loaded)

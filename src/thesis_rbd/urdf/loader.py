@@ -190,6 +190,8 @@ def _tree_order(robot) -> tuple[str, list]:
             )
         parent_joint[joint.child] = joint
     roots = [link.name for link in robot.links if link.name not in parent_joint]
+    if not links:
+        raise ValueError("the file has no <link> elements")
     if len(roots) != 1:
         raise ValueError(f"the links hang from {len(roots)} roots {roots}, not one")
     children = {}
