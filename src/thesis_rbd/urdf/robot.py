@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from thesis_rbd.spatial.quaternion import quat_multiply, quat_rotate
+from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
 
 __all__ = ["Robot"]
 
@@ -50,6 +50,16 @@ class Robot:
         self, world, name, bodies, joints, joint_names, effort_limits, velocity_limits,
         tree_joints, mimics=None, offsets=None,
     ):  # fmt: skip
+        # each tree joint's child orientation relative to its parent's in the URDF's zero
+        # configuration, where the model is loaded (q_child = q_parent q_rest)
+        frames = world.joint_frames
+        self._rest = {}
+        for j in tree_joints:
+            child, parent = frames["bodies"][j]
+            if parent >= 0:
+                self._rest[j] = quat_multiply(
+                    quat_conjugate(world.orientation(parent)), world.orientation(child)
+                )
         self.world = world
         self.name = name
         self.bodies = dict(bodies)
@@ -159,7 +169,6 @@ class Robot:
         q = self.joint_positions()
         rates = self.joint_velocities()
         q[indices] = values
-        q -= self._offsets
         if velocities is None:
             rates[indices] = 0.0
         else:
@@ -168,7 +177,8 @@ class Robot:
             )
             self._check_drivable(rate_indices, "cannot be set")
             rates[rate_indices] = rate_values
-        for body, pose in _placed_links(self.world, self.tree_joints, self.joints, q, rates):
+        placed = _placed_links(self.world, self.tree_joints, self._rest, self.joints, q, rates)
+        for body, pose in placed:
             self.world.set_body_state(body, *pose)
 
     def set_joint_targets(self, positions) -> None:
@@ -212,10 +222,11 @@ def limit_or_inf(value) -> float:
     return math.inf if value is None or not value > 0.0 else float(value)
 
 
-def _placed_links(world, tree_joints, movable, q, rates):
+def _placed_links(world, tree_joints, rest, movable, q, rates):
     """(body, (position, orientation, velocity, angular_velocity)) of each link below a
-    joint, placed from its parent's pose and velocity through the joint at ``q`` / ``rates``
-    (one per ``movable`` joint; the fixed joints at zero), parents first."""
+    joint, placed from its parent's pose and velocity through the joint at the URDF
+    positions ``q`` and ``rates`` (one per ``movable`` joint; the fixed joints at zero) from
+    its ``rest`` orientation relative to its parent, parents first."""
     frames = world.joint_frames
     joints = world.joints
     value = dict(zip(movable, q, strict=True))
@@ -250,7 +261,7 @@ def _placed_links(world, tree_joints, movable, q, rates):
         elif kind == "prismatic":
             travel = value[j]
             travel_rate = rate[j]
-        q_c = quat_multiply(turn, quat_multiply(q_p, frames["rest_orientations"][j]))
+        q_c = quat_multiply(turn, quat_multiply(q_p, rest[j]))
         x_c = anchor + travel * axis - quat_rotate(q_c, arm_child)
         w_c = w_p + angle_rate * axis
         v_c = (

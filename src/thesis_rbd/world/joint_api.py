@@ -16,7 +16,6 @@ from thesis_rbd.dynamics.joint_set import (
     JOINT_KINDS,
     KIND,
     KIND_NAMES,
-    RELATIVE_ORIENTATION,
 )
 from thesis_rbd.spatial.quaternion import quat_rotate, quat_to_matrix
 
@@ -192,11 +191,9 @@ class WorldJoints:
         (-1: the world); ``anchors`` (m, 2, 3), the anchor on each body relative to its centre
         of mass in its body frame (the frame of ``orientations``; on the world, the world
         point), m; ``axes`` (m, 2, 3), a hinge's or slider's unit axis in the same frames,
-        zero for the kinds without one; ``rest_orientations`` (m, 4), body_a's orientation
-        relative to body_b's where the joint's position is zero (q_a = q_b q_rest, x y z w).
-        A side's world anchor is R(q) anchor + x with the body's current pose (x, q); the
-        joint holds the two sides' anchors together (a slider's on its line, a rod's at its
-        length).
+        zero for the kinds without one. A side's world anchor is R(q) anchor + x with the
+        body's current pose (x, q); the joint holds the two sides' anchors together (a
+        slider's on its line, a rod's at its length).
         """
         joints = self._joints
         floats = joints.floats
@@ -210,5 +207,4 @@ class WorldJoints:
                 np.stack([floats[:, AXIS_A : AXIS_A + 3], floats[:, AXIS_B : AXIS_B + 3]], 1),
                 0.0,
             ),
-            "rest_orientations": floats[:, RELATIVE_ORIENTATION : RELATIVE_ORIENTATION + 4].copy(),
         }
