@@ -569,3 +569,72 @@ def test_a_massless_root_needs_a_fixed_base():
     with pytest.raises(ValueError, match=r"lbr_iiwa_link_0.*loads with fixed_base=True"):
         rbd.load_urdf(world, _data("kuka_iiwa/model.urdf"))
     assert len(world) == 0
+
+
+def test_a_scene_loads_urdf_models_posed_and_held(tmp_path):
+    """A [[urdf]] table loads the iiwa beside a scene's own body, in the pose its
+    joint_positions give, its servos holding the targets its joint_targets give."""
+    scene = tmp_path / "arm.toml"
+    scene.write_text(
+        f"""
+[world]
+dt = 0.004166666666666667
+gravity = [0.0, 0.0, -9.81]
+
+[[body]]
+name = "floor"
+shape = {{ type = "box", extents = [4.0, 4.0, 0.2] }}
+position = [0.0, 0.0, -0.1]
+static = true
+
+[[urdf]]
+path = "{_data("kuka_iiwa/model.urdf")}"
+fixed_base = true
+joint_positions = {{ lbr_iiwa_joint_2 = 0.5 }}
+joint_targets = {{ lbr_iiwa_joint_2 = 0.5, lbr_iiwa_joint_4 = -1.0 }}
+"""
+    )
+    world = rbd.load_scene(scene).build()
+    assert world.bodies.count == 1 + 8
+    second = world.joints["name"].index("lbr_iiwa_joint_2")
+    assert world.joints["position"][second] == pytest.approx(0.5, abs=1e-12)
+    world.step(240)
+    fourth = world.joints["name"].index("lbr_iiwa_joint_4")
+    assert world.joints["position"][second] == pytest.approx(0.5, abs=1e-3)
+    assert world.joints["position"][fourth] == pytest.approx(-1.0, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    "table, message",
+    [
+        ("fixed_base = true", "urdf[0]: needs a 'path'"),
+        ('path = "missing.urdf"', "urdf[0]: field 'path': no URDF file at"),
+        ('path = "{robot}"\ninertia = "cad"', "urdf[0]: field 'inertia': must be 'file' or"),
+        (
+            'path = "{robot}"\nfixed_base = true\njoint_targets = {{ elbow = 1.0 }}',
+            "urdf[0]: robot 'lbr_iiwa' has no movable joint 'elbow'",
+        ),
+        ('path = "{robot}"\nbase = 1', "urdf[0]: unknown key 'base'"),
+    ],
+)
+def test_bad_urdf_tables_name_the_fault(tmp_path, table, message):
+    scene = tmp_path / "bad.toml"
+    scene.write_text("[[urdf]]\n" + table.format(robot=_data("kuka_iiwa/model.urdf")) + "\n")
+    with pytest.raises(rbd.SceneError, match=re.escape(message)):
+        rbd.load_scene(scene).build()
+
+
+def test_the_cli_runs_a_urdf_file(tmp_path):
+    """`thesis-rbd run robot.urdf`: the model alone, its base held, its joints falling."""
+    from typer.testing import CliRunner
+
+    from thesis_rbd.cli import app
+
+    out = tmp_path / "run.npz"
+    result = CliRunner().invoke(
+        app, ["run", str(_data("kuka_iiwa/model.urdf")), "-s", "0.2", "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    trajectory = rbd.Trajectory.load(out)
+    assert "lbr_iiwa_link_7" in trajectory.names
+    assert len(trajectory.joint_names) == 7

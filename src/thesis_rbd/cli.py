@@ -44,7 +44,7 @@ from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd._numba.stage_ledger import StageLedger
 from thesis_rbd._run_status import RunStatus
 from thesis_rbd.dynamics.integrators import INTEGRATORS
-from thesis_rbd.scene import Scene, load_scene
+from thesis_rbd.scene import Scene, load_scene, urdf_scene
 from thesis_rbd.trajectory import MEMORY_LIMIT, Trajectory, planned_steps, simulate
 from thesis_rbd.world.world import DEFAULT_DT
 
@@ -74,8 +74,11 @@ class InputError(Exception):
 
 
 def resolve_scene(argument: str) -> Scene:
-    """Load ``argument`` as a scene file if it is one, else as a built-in scene's name."""
+    """Load ``argument`` as a scene file if it is one (a URDF file: that model alone, its
+    base held), else as a built-in scene's name."""
     path = Path(argument)
+    if path.suffix.lower() == ".urdf":
+        return urdf_scene(path)
     if path.is_file() or path.suffix == ".toml" or "/" in argument or "\\" in argument:
         return load_scene(path)
     if argument in builtin_scenes.names():
@@ -226,7 +229,10 @@ def _summary(
 def run(
     scene: Annotated[
         str,
-        typer.Argument(help="Scene file (.toml) or built-in scene name (see `thesis-rbd scenes`)."),
+        typer.Argument(
+            help="Scene file (.toml), URDF file (.urdf) or built-in scene name (see "
+            "`thesis-rbd scenes`)."
+        ),
     ] = builtin_scenes.DEFAULT,
     seconds: Annotated[
         float | None,
@@ -353,7 +359,10 @@ def run(
 def view(
     scene: Annotated[
         str,
-        typer.Argument(help="Scene file (.toml) or built-in scene name (see `thesis-rbd scenes`)."),
+        typer.Argument(
+            help="Scene file (.toml), URDF file (.urdf) or built-in scene name (see "
+            "`thesis-rbd scenes`)."
+        ),
     ] = builtin_scenes.DEFAULT,
     port: Annotated[
         int,

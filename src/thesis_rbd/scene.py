@@ -55,6 +55,17 @@ mesh frame, as ``shapes = [{ shape = {...}, position = [...], orientation = [...
 A distance joint takes ``anchor_b``, ``limits = [0.0, 1.2]`` (a rope) and
 ``spring = { stiffness = 100.0, damping = 2.0, rest_length = 1.0 }``.
 
+A ``[[urdf]]`` table loads a robot or mechanism after the bodies and joints, with the
+arguments of :func:`~thesis_rbd.load_urdf` (``path`` relative to the scene file), and
+``joint_positions`` and ``joint_targets`` tables of joint names to values (rad or m): the
+pose it starts in and the targets its servos hold::
+
+    [[urdf]]
+    path = "arm/model.urdf"
+    fixed_base = true
+    joint_positions = { lbr_iiwa_joint_2 = 0.5 }
+    joint_targets = { lbr_iiwa_joint_2 = 0.0, lbr_iiwa_joint_4 = -1.0 }
+
 Shapes: ``box`` (extents), ``icosphere`` (radius, subdivisions), ``cylinder`` (radius, height,
 sections), ``torus`` (major_radius, minor_radius, major_sections, minor_sections) with the
 defaults of :mod:`thesis_rbd.shapes`, and ``mesh`` (path, relative to the scene file; optional
@@ -231,6 +242,23 @@ class JointSpec:
 
 
 @dataclass(frozen=True)
+class UrdfSpec:
+    """One ``[[urdf]]`` table: the arguments of :func:`~thesis_rbd.load_urdf` (its path
+    resolved against the scene file's folder), and joint positions and servo targets by
+    joint name, set once the model is loaded."""
+
+    path: str
+    base_position: tuple = (0.0, 0.0, 0.0)
+    base_orientation: tuple = (0.0, 0.0, 0.0, 1.0)
+    fixed_base: bool = False
+    merge_fixed_links: bool = True
+    self_collision: bool = False
+    inertia: str = "file"
+    joint_positions: MappingProxyType | None = None
+    joint_targets: MappingProxyType | None = None
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene, ready to build worlds from.
 
@@ -253,6 +281,8 @@ class Scene:
     bodies : tuple of BodySpec
         In world index order.
     joints : tuple of JointSpec
+    urdfs : tuple of UrdfSpec
+        Models loaded after the bodies and joints, in order.
     source : str
         Where the scene came from (a path), used in messages.
     """
@@ -265,6 +295,7 @@ class Scene:
     source: str
     record_contacts: bool = False
     joints: tuple[JointSpec, ...] = ()
+    urdfs: tuple[UrdfSpec, ...] = ()
 
     @property
     def summary(self) -> str:
@@ -312,6 +343,11 @@ class Scene:
                 )  # fmt: skip
             except ValueError as exc:
                 raise SceneError(f"{self.source}: joint[{index}]: {exc}") from exc
+        for index, model in enumerate(self.urdfs):
+            try:
+                _load_model(world, model)
+            except (ValueError, ImportError) as exc:
+                raise SceneError(f"{self.source}: urdf[{index}]: {exc}") from exc
         return world
 
     def with_world(self, **settings) -> Scene:
@@ -357,6 +393,29 @@ def load_scene(path: str | Path) -> Scene:
     return parse_scene(text, name=path.stem, source=str(path), folder=path.parent)
 
 
+def urdf_scene(path: str | Path) -> Scene:
+    """A scene of one URDF model alone, its base held where it stands and its joints free
+    under gravity (what ``thesis-rbd run robot.urdf`` and ``view`` show).
+
+    Raises
+    ------
+    SceneError
+        If the file is missing.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"URDF file not found: {path}")
+    return Scene(
+        name=path.stem,
+        description=f"{path.name}: its base held, its joints falling under gravity",
+        seconds=DEFAULT_SECONDS,
+        world=MappingProxyType({"dt": 1.0 / 240.0, "gravity": (0.0, 0.0, -9.81)}),
+        bodies=(),
+        source=str(path),
+        urdfs=(UrdfSpec(path=str(path), fixed_base=True),),
+    )
+
+
 def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
     """Validate the TOML text of a scene.
 
@@ -377,7 +436,9 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
         raise SceneError(f"{source}: not valid TOML: {exc}") from exc
     top = _Context(source, "top level")
     _check_keys(
-        document, ("description", "seconds", "record_contacts", "world", "body", "joint"), top
+        document,
+        ("description", "seconds", "record_contacts", "world", "body", "joint", "urdf"),
+        top,
     )
     description = _optional(document, "description", "", _as_string, top)
     seconds = _optional(document, "seconds", DEFAULT_SECONDS, _positive_number, top)
@@ -411,6 +472,15 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
         _parse_joint(table, _Context(source, f"joint[{index}]"), seen)
         for index, table in enumerate(joint_tables)
     )
+    urdf_tables = document.get("urdf", [])
+    if not isinstance(urdf_tables, list):
+        raise SceneError(
+            f"{source}: top level: 'urdf' must be [[urdf]] tables, got {urdf_tables!r}"
+        )
+    urdfs = tuple(
+        _parse_urdf(table, _Context(source, f"urdf[{index}]"), folder)
+        for index, table in enumerate(urdf_tables)
+    )
     return Scene(
         name=name,
         description=description,
@@ -420,6 +490,7 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
         source=source,
         record_contacts=record_contacts,
         joints=joints,
+        urdfs=urdfs,
     )
 
 
@@ -722,6 +793,60 @@ def _numbers_table(keys, what: str) -> Callable[[object, _Context], dict]:
         return {key: _number(item, where.field(key)) for key, item in table.items()}
 
     return check
+
+
+_URDF_KEYS = (
+    "path", "base_position", "base_orientation", "fixed_base", "merge_fixed_links",
+    "self_collision", "inertia", "joint_positions", "joint_targets",
+)  # fmt: skip
+
+
+def _parse_urdf(table, where: _Context, folder: Path) -> UrdfSpec:
+    """A ``[[urdf]]`` table; its path relative to ``folder``, which must hold the file."""
+    table = _as_table(table, where, None)
+    _check_keys(table, _URDF_KEYS, where)
+    if "path" not in table:
+        where.fail("needs a 'path' to its URDF file")
+    path = folder / _as_string(table["path"], where.field("path"))
+    if not path.is_file():
+        where.field("path").fail(f"no URDF file at {path}")
+    inertia = _optional(table, "inertia", "file", _as_string, where)
+    if inertia not in ("file", "shapes"):
+        where.field("inertia").fail(f"must be 'file' or 'shapes', got {inertia!r}")
+
+    def by_name(value, here: _Context) -> MappingProxyType:
+        value = _as_table(value, here, None)
+        return MappingProxyType({str(k): _number(v, here.field(str(k))) for k, v in value.items()})
+
+    return UrdfSpec(
+        path=str(path),
+        base_position=tuple(_optional(table, "base_position", (0.0, 0.0, 0.0), _vector3, where)),
+        base_orientation=tuple(
+            _optional(table, "base_orientation", (0.0, 0.0, 0.0, 1.0), _quaternion, where)
+        ),
+        fixed_base=_optional(table, "fixed_base", False, _as_bool, where),
+        merge_fixed_links=_optional(table, "merge_fixed_links", True, _as_bool, where),
+        self_collision=_optional(table, "self_collision", False, _as_bool, where),
+        inertia=inertia,
+        joint_positions=_optional(table, "joint_positions", None, by_name, where),
+        joint_targets=_optional(table, "joint_targets", None, by_name, where),
+    )
+
+
+def _load_model(world: World, model: UrdfSpec) -> None:
+    """Load one ``[[urdf]]`` model into ``world`` and set its joints."""
+    from thesis_rbd.urdf import load_urdf
+
+    robot = load_urdf(
+        world, model.path, base_position=model.base_position,
+        base_orientation=model.base_orientation, fixed_base=model.fixed_base,
+        merge_fixed_links=model.merge_fixed_links, self_collision=model.self_collision,
+        inertia=model.inertia,
+    )  # fmt: skip
+    if model.joint_positions:
+        robot.set_joint_positions(dict(model.joint_positions))
+    if model.joint_targets:
+        robot.set_joint_targets(dict(model.joint_targets))
 
 
 def _parse_force(table, where: _Context) -> ForceSpec:
