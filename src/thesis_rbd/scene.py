@@ -463,23 +463,11 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
                 f"by body[{seen[body.name]}]; body names must be unique"
             )
         seen[body.name] = index
-    joint_tables = document.get("joint", [])
-    if not isinstance(joint_tables, list):
-        raise SceneError(
-            f"{source}: top level: 'joint' must be [[joint]] tables, got {joint_tables!r}"
-        )
     joints = tuple(
-        _parse_joint(table, _Context(source, f"joint[{index}]"), seen)
-        for index, table in enumerate(joint_tables)
+        _parse_joint(table, where, seen) for table, where in _tables(document, "joint", source)
     )
-    urdf_tables = document.get("urdf", [])
-    if not isinstance(urdf_tables, list):
-        raise SceneError(
-            f"{source}: top level: 'urdf' must be [[urdf]] tables, got {urdf_tables!r}"
-        )
     urdfs = tuple(
-        _parse_urdf(table, _Context(source, f"urdf[{index}]"), folder)
-        for index, table in enumerate(urdf_tables)
+        _parse_urdf(table, where, folder) for table, where in _tables(document, "urdf", source)
     )
     return Scene(
         name=name,
@@ -793,6 +781,14 @@ def _numbers_table(keys, what: str) -> Callable[[object, _Context], dict]:
         return {key: _number(item, where.field(key)) for key, item in table.items()}
 
     return check
+
+
+def _tables(document: dict, key: str, source: str) -> list[tuple[dict, _Context]]:
+    """The ``[[key]]`` tables of a scene document, each with its context ``key[i]``."""
+    tables = document.get(key, [])
+    if not isinstance(tables, list):
+        raise SceneError(f"{source}: top level: {key!r} must be [[{key}]] tables, got {tables!r}")
+    return [(table, _Context(source, f"{key}[{index}]")) for index, table in enumerate(tables)]
 
 
 _URDF_KEYS = (

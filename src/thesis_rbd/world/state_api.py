@@ -16,6 +16,20 @@ from thesis_rbd.world.step_kernel import CONTACTS
 __all__ = ["WorldStateSetters"]
 
 
+def _checked_state(position, orientation, velocity, angular_velocity) -> tuple:
+    """The state arguments of the setters, each checked (None stays None): position (3,),
+    a normalised orientation (4,), velocity (3,) and angular velocity (3,)."""
+    x = None if position is None else as_finite_array(position, "position", shape=(3,))
+    q = None if orientation is None else as_unit_quaternion(orientation)
+    v = None if velocity is None else as_finite_array(velocity, "velocity", shape=(3,))
+    w = (
+        None
+        if angular_velocity is None
+        else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
+    )
+    return x, q, v, w
+
+
 class WorldStateSetters:
     """State setters of ``World``: they change ``self.bodies`` and keep ``self._state``,
     ``self._sleep`` and ``self._contacts_stale`` in line."""
@@ -49,14 +63,7 @@ class WorldStateSetters:
                 f"body {body} ({b.names[body]!r}) is not kinematic: set_kinematic moves the "
                 "bodies added with kinematic=True"
             )
-        x = None if position is None else as_finite_array(position, "position", shape=(3,))
-        q = None if orientation is None else as_unit_quaternion(orientation)
-        v = None if velocity is None else as_finite_array(velocity, "velocity", shape=(3,))
-        w = (
-            None
-            if angular_velocity is None
-            else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
-        )
+        x, q, v, w = _checked_state(position, orientation, velocity, angular_velocity)
         was_moving = bool(self._moving_kinematic()[body])
         if x is not None:
             b.position[body] = x
@@ -100,14 +107,7 @@ class WorldStateSetters:
                 f"body {body} ({b.names[body]!r}) is {kind}: set_body_state sets the state of "
                 "dynamic bodies (set_kinematic moves kinematic ones)"
             )
-        x = None if position is None else as_finite_array(position, "position", shape=(3,))
-        q = None if orientation is None else as_unit_quaternion(orientation)
-        v = None if velocity is None else as_finite_array(velocity, "velocity", shape=(3,))
-        w = (
-            None
-            if angular_velocity is None
-            else as_finite_array(angular_velocity, "angular_velocity", shape=(3,))
-        )
+        x, q, v, w = _checked_state(position, orientation, velocity, angular_velocity)
         if w is None and q is not None:
             w = self.angular_velocity(body)
         if x is not None:

@@ -179,6 +179,24 @@ def _centre(P, L, k):
     return (P[r, 0], P[r, 1], P[r, 2])
 
 
+@njit(inline="always")
+def _other_side(code, P, L, M, t, box, triangle, g, c, w0, w1, w2):
+    """The side of a split that is not split, code ``code`` of tree (P, L), carried by
+    ``x -> M x + t`` into the split side's frame: its box's axes g and centre c, or its
+    triangle's corners w0, w1, w2, kept as they are where ``box`` or ``triangle`` says they
+    were carried already. Returns (box, triangle, g, c, w0, w1, w2, anchor): what is carried
+    now, and its reference point (the box's centre or the triangle's centroid)."""
+    if code >= 0:
+        if code != box:
+            g, c = carry_box(code, P, L, M, t)
+            box = code
+        return box, triangle, g, c, w0, w1, w2, c
+    if code != triangle:
+        w0, w1, w2 = _carried_triangle(P, L, -code - 1, M, t)
+        triangle = code
+    return box, triangle, g, c, w0, w1, w2, _centroid(w0, w1, w2)
+
+
 @njit(allocates=False)
 def _centroid(w0, w1, w2):
     return (
@@ -426,32 +444,18 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 x0 = x1 = x
                 y0 = c0
                 y1 = c1
-                if x >= 0:
-                    if x != carried_a:
-                        ga, ca = carry_box(x, Pa, La, Mba, tba)
-                        carried_a = x
-                    anchor = ca
-                else:
-                    if x != carried_triangle_a:
-                        wa0, wa1, wa2 = _carried_triangle(Pa, La, -x - 1, Mba, tba)
-                        carried_triangle_a = x
-                    anchor = _centroid(wa0, wa1, wa2)
+                carried_a, carried_triangle_a, ga, ca, wa0, wa1, wa2, anchor = _other_side(
+                    x, Pa, La, Mba, tba, carried_a, carried_triangle_a, ga, ca, wa0, wa1, wa2
+                )
                 split_centre = _centre(Pb, Lb, y)
             else:
                 c0, c1, n_pending = _children(Pa, La, x)
                 x0 = c0
                 x1 = c1
                 y0 = y1 = y
-                if y >= 0:
-                    if y != carried:
-                        g, c = carry_box(y, Pb, Lb, Mab, tab)
-                        carried = y
-                    anchor = c
-                else:
-                    if y != carried_triangle_b:
-                        wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y - 1, Mab, tab)
-                        carried_triangle_b = y
-                    anchor = _centroid(wb0, wb1, wb2)
+                carried, carried_triangle_b, g, c, wb0, wb1, wb2, anchor = _other_side(
+                    y, Pb, Lb, Mab, tab, carried, carried_triangle_b, g, c, wb0, wb1, wb2
+                )
                 split_centre = _centre(Pa, La, x)
             # The children's support bounds share one line, from the split node's centre to
             # the anchor (unit ``u`` in the split side's frame): the fixed side's reach back
