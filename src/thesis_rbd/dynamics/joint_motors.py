@@ -144,7 +144,7 @@ def drive_joints(
         angular_momentum, inverse_mass, inverse_inertia_body, kinematic_velocity,
         kinematic_angular_velocity,
     )  # fmt: skip
-    braked = _braked_masses(S, count)
+    braked = _braked_masses(S, swept, floats)
     # each axis row's motor, spring and friction impulse this substep
     applied = np.zeros((count, 3))
     for _ in range(sweeps):
@@ -294,13 +294,20 @@ def _row_speeds(rows, row_joint, count, ints, frozen, orientation, P, L, inverse
 
 
 @njit
-def _braked_masses(S, count):
+def _braked_masses(S, swept, floats):
     """Each axis row's effective mass with the other axis rows held too, (S^-1)_ee: what a
     servo turns when the other joints' servos hold theirs, the most it can meet, which sets
-    its braking; 0 where S has no inverse (its own 1 / S_ee then stands)."""
+    its braking; 0 where S has no inverse (its own 1 / S_ee then stands), and all 0 where
+    no servo is capped (only a capped servo brakes)."""
+    count = len(swept)
+    out = np.zeros(count)
+    capped = False
+    for j in swept:
+        capped |= int(floats[j, MOTOR]) == SERVO_MOTOR and floats[j, MOTOR_MAX] < math.inf
+    if not capped:
+        return out
     D = S.copy()
     kept = lu_in_place(D, count)
-    out = np.zeros(count)
     unit = np.empty(count)
     for e in range(count):
         if not kept[e]:

@@ -49,7 +49,7 @@ from thesis_rbd.collision.mesh.packed import (
     support_values,
     tree_depth,
 )
-from thesis_rbd.collision.mesh.packed_support import support_along, support_weights
+from thesis_rbd.collision.mesh.packed_support import support_weights
 from thesis_rbd.collision.queries._query_args import (
     as_pose,
     as_pose_stack,
@@ -64,7 +64,7 @@ from thesis_rbd.collision.queries._query_args import (
 )
 from thesis_rbd.collision.queries.box_distance import box_box_gap, triangle_box_gap
 from thesis_rbd.collision.queries.hull_distance import hull_distance
-from thesis_rbd.collision.queries.support_distance import child_gap, triangle_reach
+from thesis_rbd.collision.queries.support_distance import child_gap, node_reach, triangle_reach
 from thesis_rbd.collision.queries.triangle_distance import triangle_distance, triangle_gap
 
 __all__ = ["DistanceResult", "distance", "mesh_distance"]
@@ -285,14 +285,13 @@ def mesh_distance(Pa, Pb, Mab, tab):
     # (A's lone triangle into B's frame, or B's root into A's).
     split_b = x0 < 0
     if split_b:
-        wa0, wa1, wa2 = _carried_triangle(Pa, La, -x0 - 1, Mba, tba)
-        carried_triangle_a = x0
-    elif y0 >= 0:
-        g, c = carry_box(y0, Pb, Lb, Mab, tab)
-        carried = y0
+        carried_a, carried_triangle_a, ga, ca, wa0, wa1, wa2, _ = _other_side(
+            x0, Pa, La, Mba, tba, carried_a, carried_triangle_a, ga, ca, wa0, wa1, wa2
+        )
     else:
-        wb0, wb1, wb2 = _carried_triangle(Pb, Lb, -y0 - 1, Mab, tab)
-        carried_triangle_b = y0
+        carried, carried_triangle_b, g, c, wb0, wb1, wb2, _ = _other_side(
+            y0, Pb, Lb, Mab, tab, carried, carried_triangle_b, g, c, wb0, wb1, wb2
+        )
     # the support bounds' line of the current split (none for the root pair)
     lined = False
     line = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -472,24 +471,14 @@ def mesh_distance(Pa, Pb, Mab, tab):
                 uz = wz / length
                 line = (anchor[0], anchor[1], anchor[2], ux, uy, uz)
                 weights = support_weights(ux, uy, uz)
+                # u is in B's frame where B is split (Mab carries it into A's), else in
+                # A's (Mab^T carries it into B's)
                 if split_b and x >= 0:
-                    # -u in A's frame
-                    reach = support_along(
-                        Fa, sa, x,
-                        -(Mab[0] * ux + Mab[1] * uy + Mab[2] * uz),
-                        -(Mab[3] * ux + Mab[4] * uy + Mab[5] * uz),
-                        -(Mab[6] * ux + Mab[7] * uy + Mab[8] * uz),
-                    )  # fmt: skip
+                    reach = node_reach(Fa, sa, x, Mab, False, ux, uy, uz)
                 elif split_b:
                     reach = triangle_reach(wa0, wa1, wa2, anchor, ux, uy, uz)
                 elif y >= 0:
-                    # -u in B's frame
-                    reach = support_along(
-                        Fb, sb, y,
-                        -(Mab[0] * ux + Mab[3] * uy + Mab[6] * uz),
-                        -(Mab[1] * ux + Mab[4] * uy + Mab[7] * uz),
-                        -(Mab[2] * ux + Mab[5] * uy + Mab[8] * uz),
-                    )  # fmt: skip
+                    reach = node_reach(Fb, sb, y, Mab, True, ux, uy, uz)
                 else:
                     reach = triangle_reach(wb0, wb1, wb2, anchor, ux, uy, uz)
         if searching:

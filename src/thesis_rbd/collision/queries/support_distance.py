@@ -22,12 +22,38 @@ from __future__ import annotations
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision.mesh.packed import corner
-from thesis_rbd.collision.mesh.packed_support import support_at
+from thesis_rbd.collision.mesh.packed_support import support_along, support_at
 
-__all__ = ["child_gap", "triangle_reach"]
+__all__ = ["child_gap", "node_reach", "triangle_reach"]
 
 # Relative allowance for the round-off of the stored supports and the bound's own terms
 _MARGIN = 1e-12
+
+
+@njit(inline="always")
+def node_reach(F, start, k, M, transposed, ux, uy, uz):
+    """How far node k of a tree reaches back from its centre along ``-u``, for ``u`` given
+    in the other tree's frame: its support along ``-M u`` (``-M^T u`` if ``transposed``),
+    M the row-major rotation between the two frames.
+
+    Parameters
+    ----------
+    F : (2 m,) float32
+        The node's packed tree read as float32; ``start`` its support block's index there.
+    """
+    if transposed:
+        return support_along(
+            F, start, k,
+            -(M[0] * ux + M[3] * uy + M[6] * uz),
+            -(M[1] * ux + M[4] * uy + M[7] * uz),
+            -(M[2] * ux + M[5] * uy + M[8] * uz),
+        )  # fmt: skip
+    return support_along(
+        F, start, k,
+        -(M[0] * ux + M[1] * uy + M[2] * uz),
+        -(M[3] * ux + M[4] * uy + M[5] * uz),
+        -(M[6] * ux + M[7] * uy + M[8] * uz),
+    )  # fmt: skip
 
 
 @njit(inline="always")
