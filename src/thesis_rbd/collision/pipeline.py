@@ -388,23 +388,27 @@ class CollisionPipeline:
         )  # fmt: skip
 
 
-def some_pair_may_collide(bodies) -> bool:
+def some_pair_may_collide(bodies, excluded=None) -> bool:
     """Whether any two of ``bodies`` (``BodyArrays``) may ever collide: both collidable, not
-    both static, and each one's collision group meeting the other's mask (the rule of
-    ``CollisionPipeline.update``, pair exclusions aside). A scene with none runs no collision
-    stage (a chain whose links collide with nothing pays for no bounds or broad phase).
+    both static, each one's collision group meeting the other's mask, and the pair not among
+    ``excluded`` ((p, 2) int64 body pairs; None: none), the rule of
+    ``CollisionPipeline.update``. A scene with none runs no collision stage (a chain whose
+    links collide with nothing, a robot alone whose links may not touch each other, pays for
+    no bounds or broad phase).
 
     Bodies with the same (group, mask, static) collide alike, so the test runs over those
-    kinds, few in any scene, not over the pairs of bodies.
+    kinds, few in any scene, not over the pairs of bodies; the pairs themselves are listed
+    only where the exclusions could cover them all, so never more than the exclusions.
     """
     may = bodies.collidable & (bodies.collision_group != 0) & (bodies.collision_mask != 0)
     if np.count_nonzero(may) < 2:
         return False
-    kinds, counts = np.unique(
+    kinds, kind_of, counts = np.unique(
         np.stack(
             [bodies.collision_group[may], bodies.collision_mask[may], bodies.static[may]], axis=1
         ),
         axis=0,
+        return_inverse=True,
         return_counts=True,
     )
     group, mask, static = kinds[:, 0], kinds[:, 1], kinds[:, 2].astype(bool)
@@ -412,7 +416,25 @@ def some_pair_may_collide(bodies) -> bool:
     meets &= ~(static[:, None] & static[None, :])
     # a kind pairs with itself only if it has two bodies
     meets[np.diag_indices(len(kinds))] &= counts >= 2
-    return bool(meets.any())
+    if not meets.any() or excluded is None or len(excluded) == 0:
+        return bool(meets.any())
+    # pairs of kinds meeting, counted: more of them than exclusions leaves one free
+    pairs_per_kind = np.outer(counts, counts) - np.diag(counts * (counts + 1) // 2)
+    candidates = int(np.triu(np.where(meets, pairs_per_kind, 0)).sum())
+    excluded_keys = np.unique(_keys(excluded[:, 0], excluded[:, 1]))
+    if candidates > len(excluded_keys):
+        return True
+    ids = np.flatnonzero(may)
+    first, second = np.triu_indices(len(ids), 1)
+    meeting = meets[kind_of.ravel()[first], kind_of.ravel()[second]]
+    keys = _keys(ids[first[meeting]], ids[second[meeting]])
+    return not bool(np.isin(keys, excluded_keys).all())
+
+
+def _keys(low, high) -> np.ndarray:
+    """Keys of the pairs (low[k], high[k]) as ``_pair_keys`` makes them, in NumPy: the
+    planner's few pairs need no kernel."""
+    return (np.asarray(low, np.int64) << 32) | np.asarray(high, np.int64)
 
 
 def _place_between(body, fraction, start_position, start_orientation, end_position,

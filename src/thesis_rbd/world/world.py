@@ -407,7 +407,8 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         n = b.count
         dynamic = bool(n) and not bool(np.all(b.static))
         gathers_forces = dynamic and (bool(np.any(self.gravity)) or len(self.applied_forces) > 0)
-        collides = dynamic and some_pair_may_collide(b)
+        excluded = np.concatenate([self._excluded, self._joints.excluded_pairs()])
+        collides = dynamic and some_pair_may_collide(b, excluded)
         responds = collides and self.contact_response
         toi = responds and self.contact_settings.penetration == "toi"
         # bodies come to rest through contact: without collisions nothing would sleep
@@ -426,9 +427,7 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         # that lost its support for a step falls g dt^2 and gains g dt): a 2 mm cube's is
         # 8 % of its edge, far beyond the margin relative to its size
         reach = 2.0 * float(np.linalg.norm(self.gravity)) * self.dt**2
-        self._collision.plan(
-            b, reach, np.concatenate([self._excluded, self._joints.excluded_pairs()])
-        )
+        self._collision.plan(b, reach, excluded)
         # M g is constant between scene changes: computed here, not every step
         self._gravity_force = np.where(b.static, 0.0, b.mass)[:, None] * self.gravity
         fast = np.zeros(n, bool)
