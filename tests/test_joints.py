@@ -381,7 +381,7 @@ def test_factor_drops_redundant_rows_and_solves_the_rest(size, redundant, seed):
     for r in range(min(redundant, size - 1)):
         J[size - 1 - r] = J[r] * rng.uniform(0.5, 2.0) + J[(r + 1) % (size - 1)]
     K = J @ J.T
-    rhs = K @ rng.normal(size=size)  # consistent
+    rhs = K @ rng.normal(size=(size, 3))  # consistent, three columns solved at once
     factor = K.copy()
     kept = lu_in_place(factor, size)
     x = rhs.copy()
@@ -505,7 +505,7 @@ def test_tree_solve_matches_a_dense_solve(joints, seed):
             lower[s, : rows[f], : rows[e]] = K[rf, re]
     kept = np.zeros((joints, 6), bool)
     factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
-    rhs = rng.normal(size=size)
+    rhs = rng.normal(size=(size, 3))  # three columns solved at once
     x = rhs.copy()
     solve_tree(rows, row_start, self_slot, slot_neighbour, upper, lower, kept, x)
     assert kept[np.arange(6) < rows[:, None]].all()

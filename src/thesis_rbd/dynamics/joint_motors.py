@@ -42,15 +42,8 @@ import numpy as np
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.integrators import angular_velocity
 from thesis_rbd.dynamics.joint_forces import friction_impulse, spring_impulse
-from thesis_rbd.dynamics.joint_rows import (
-    axis_row,
-    body_pose,
-    coupling_matrix,
-    joint_rows,
-    row_responses,
-    row_written,
-    write_row,
-)
+from thesis_rbd.dynamics.joint_newton import newton_solve
+from thesis_rbd.dynamics.joint_rows import axis_row, body_pose, row_responses, write_row
 from thesis_rbd.dynamics.joint_set import (
     BODY_A,
     BODY_B,
@@ -99,8 +92,9 @@ def _swept(f):
 
 @njit
 def drive_joints(
-    h, joints, ints, floats, frozen, position, orientation, linear_momentum, angular_momentum,
-    inverse_mass, inverse_inertia_body, impulse, kinematic_velocity, kinematic_angular_velocity,
+    h, joints, tree, ints, floats, frozen, position, orientation, linear_momentum,
+    angular_momentum, inverse_mass, inverse_inertia_body, impulse, kinematic_velocity,
+    kinematic_angular_velocity, scratch,
 ):  # fmt: skip
     """Apply the motors, springs, dampers and friction of an island's ``joints`` for a
     substep of length h, in place.
@@ -110,6 +104,8 @@ def drive_joints(
     h : float
         Substep (s).
     joints : (j,) int64
+    tree : bool
+        Whether the island is a tree.
     ints, floats : ``JointSet`` arrays.
     frozen : (>= n,) bool
     position ... inverse_inertia_body : body arrays (``integrate_bodies``).
@@ -139,10 +135,10 @@ def drive_joints(
             swept[count] = j
             count += 1
     swept = swept[:count]
-    held, S, free_speed, reaction, places, rows, row_joint = _held_island(
-        joints, swept, ints, floats, frozen, position, orientation, linear_momentum,
+    S, free_speed, reaction, places, axis = _held_island(
+        swept, tree, ints, floats, frozen, position, orientation, linear_momentum,
         angular_momentum, inverse_mass, inverse_inertia_body, kinematic_velocity,
-        kinematic_angular_velocity,
+        kinematic_angular_velocity, scratch,
     )  # fmt: skip
     braked = _braked_masses(S, swept, floats)
     # each axis row's motor, spring and friction impulse this substep
@@ -177,93 +173,113 @@ def drive_joints(
     lam = np.empty(count)
     for e in range(count):
         lam[e] = applied[e, 0] + applied[e, 1] + applied[e, 2]
-        _push(swept[e], lam[e], rows[held + e], ints, frozen, linear_momentum,
-              angular_momentum, impulse)  # fmt: skip
+        _push(swept[e], lam[e], axis[e], ints, frozen, linear_momentum, angular_momentum,
+              impulse)  # fmt: skip
         impulse[swept[e], 6] += applied[e, 0]
-    for r in range(held):
+    held, row_joint = scratch[1], scratch[2]
+    for r in range(len(row_joint)):
         push = 0.0
         for e in range(count):
             push -= reaction[r, e] * lam[e]
-        _push(row_joint[r], push, rows[r], ints, frozen, linear_momentum,
-              angular_momentum, impulse)  # fmt: skip
+        if push != 0.0:
+            _push(row_joint[r], push, held[r], ints, frozen, linear_momentum, angular_momentum,
+                  impulse)  # fmt: skip
 
 
 @njit
-def _held_island(joints, swept, ints, floats, frozen, position, orientation, P, L,
-                 inverse_mass, inverse_inertia_body, kinematic_velocity,
-                 kinematic_angular_velocity):  # fmt: skip
+def _held_island(swept, tree, ints, floats, frozen, position, orientation, P, L, inverse_mass,
+                 inverse_inertia_body, kinematic_velocity, kinematic_angular_velocity,
+                 scratch):  # fmt: skip
     """The swept joints' axis rows with every joint row of the island held.
 
     With K = J M^-1 J^T over the island's joint rows (e, held) and the axis rows (m), an
     impulse lam along the axis rows, the held rows answering it with -K_ee^-1 K_em lam,
     changes the axis rows' velocities by S lam, S = K_mm - K_me K_ee^-1 K_em: the inverse
     of the mechanism's mass as the motors feel it (a shoulder's servo swings the arm beyond
-    it, not its own link alone).
+    it, not its own link alone). K_ee is the island's Newton matrix of the substep
+    (``joint_newton``, factorised already: each column of K_em costs one solve in time
+    linear in a tree's joints); the held rows are its rows as they act (``scratch``'s
+    ``current``, a limit not reached written as zero and dropped).
 
     Returns
     -------
-    held : int
-        Joint rows held (the first ``held`` of ``rows``; the axis rows follow, one per
-        entry of ``swept``).
     S : (m, m) float64
     free_speed : (m,) float64
         The axis rows' velocities once the held rows' own velocities are taken out.
-    reaction : (held, m) float64
+    reaction : (r, m) float64
         K_ee^-1 K_em: the held rows' impulses per unit axis impulse, negated.
     places : (m,) float64
         Each swept joint's position.
-    rows, row_joint : (held + m, 10) float64, (held + m,) int64
+    axis : (m, 10) float64
+        The axis rows.
     """
+    held, row_joint, moved = scratch[1], scratch[2], scratch[4]
+    size = len(row_joint)
     count = len(swept)
-    rows = np.empty((8 * len(joints) + count, 10))
-    row_joint = np.empty(8 * len(joints) + count, dtype=np.int64)
-    held = 0
-    for j in joints:
-        xa, qa = body_pose(ints[j, BODY_A], position, orientation)
-        xb, qb = body_pose(ints[j, BODY_B], position, orientation)
-        n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, held, True)
-        for k in range(held, held + n):  # rows written as zero (limits not reached) left out
-            if row_written(rows, k):
-                rows[held] = rows[k]
-                row_joint[held] = j
-                held += 1
+    axis = np.empty((count, 10))
     places = np.empty(count)
     for e in range(count):
         j = swept[e]
         xa, qa = body_pose(ints[j, BODY_A], position, orientation)
         xb, qb = body_pose(ints[j, BODY_B], position, orientation)
         lin, ang_a, ang_b, places[e] = axis_row(ints[j, KIND], floats[j], xa, qa, xb, qb)
-        write_row(rows, held + e, lin, ang_a, ang_b, 0.0)
-        row_joint[held + e] = j
-    total = held + count
-    moved = np.empty((total, 12))
-    row_responses(rows, row_joint, total, ints, frozen, orientation, inverse_mass,
-                  inverse_inertia_body, moved)  # fmt: skip
-    K = np.empty((total, total))
-    coupling_matrix(ints, row_joint, rows, moved, total, K)
-    speeds = _row_speeds(rows, row_joint, total, ints, frozen, orientation, P, L, inverse_mass,
-                         inverse_inertia_body, kinematic_velocity,
-                         kinematic_angular_velocity)  # fmt: skip
-    D = K[:held, :held].copy()
-    kept = lu_in_place(D, held)
-    reaction = np.empty((held, count))
-    column = np.empty(held)
+        write_row(axis, e, lin, ang_a, ang_b, 0.0)
+    axis_moved = np.empty((count, 12))
+    row_responses(axis, swept, count, ints, frozen, orientation, inverse_mass,
+                  inverse_inertia_body, axis_moved)  # fmt: skip
+    # K_me (the axis rows against the held rows' responses) and K_ee^-1 K_em
+    K_me = np.zeros((count, size))
+    reaction = np.zeros((size, count))
     for e in range(count):
-        for r in range(held):
-            column[r] = K[r, held + e]
-        left_solve(D, kept, held, column, 0)
-        reaction[:, e] = column
+        for r in range(size):
+            if _share_a_body(ints, row_joint[r], swept[e]):
+                reaction[r, e] = _coupling(ints, row_joint[r], held, r, swept[e], axis_moved, e)
+                K_me[e, r] = _coupling(ints, swept[e], axis, e, row_joint[r], moved, r)
+    newton_solve(tree, scratch, reaction)
+    held_speed = _row_speeds(held, row_joint, size, ints, frozen, orientation, P, L,
+                             inverse_mass, inverse_inertia_body, kinematic_velocity,
+                             kinematic_angular_velocity)  # fmt: skip
+    axis_speed = _row_speeds(axis, swept, count, ints, frozen, orientation, P, L, inverse_mass,
+                             inverse_inertia_body, kinematic_velocity,
+                             kinematic_angular_velocity)  # fmt: skip
     S = np.empty((count, count))
     free_speed = np.empty(count)
     for e in range(count):
-        free_speed[e] = speeds[held + e]
-        for r in range(held):
-            free_speed[e] -= reaction[r, e] * speeds[r]
+        free_speed[e] = axis_speed[e]
+        for r in range(size):
+            free_speed[e] -= reaction[r, e] * held_speed[r]
         for k in range(count):
-            S[e, k] = K[held + e, held + k]
-            for r in range(held):
-                S[e, k] -= K[held + e, r] * reaction[r, k]
-    return held, S, free_speed, reaction, places, rows, row_joint
+            S[e, k] = _coupling(ints, swept[e], axis, e, swept[k], axis_moved, k)
+            for r in range(size):
+                S[e, k] -= K_me[e, r] * reaction[r, k]
+    return S, free_speed, reaction, places, axis
+
+
+@njit(allocates=False)
+def _share_a_body(ints, joint_i, joint_k):
+    """Whether two joints share a body (the world aside): only then are they coupled."""
+    a, b = ints[joint_i, BODY_A], ints[joint_i, BODY_B]
+    c, d = ints[joint_k, BODY_A], ints[joint_k, BODY_B]
+    return (a >= 0 and (a == c or a == d)) or (b >= 0 and (b == c or b == d))
+
+
+@njit(allocates=False)
+def _coupling(ints, joint_i, rows, i, joint_k, moved, k):
+    """J_i M^-1 J_k^T of row i of ``rows`` (a row of joint_i) against row k of ``moved``
+    (the response of a row of joint_k, ``row_responses``), over the bodies they share."""
+    total = 0.0
+    for side_i in range(2):
+        body = ints[joint_i, BODY_A + side_i]
+        if body < 0:
+            continue
+        sign = 1.0 if side_i == 0 else -1.0
+        for side_k in range(2):
+            if ints[joint_k, BODY_A + side_k] != body:
+                continue
+            for c in range(3):
+                total += sign * rows[i, c] * moved[k, 6 * side_k + c]
+                total += rows[i, 3 + 3 * side_i + c] * moved[k, 6 * side_k + 3 + c]
+    return total
 
 
 @njit
@@ -314,7 +330,7 @@ def _braked_masses(S, swept, floats):
             continue
         for k in range(count):
             unit[k] = 1.0 if k == e else 0.0
-        left_solve(D, kept, count, unit, 0)
+        left_solve(D, kept, count, unit.reshape((count, 1)), 0)
         out[e] = unit[e]
     return out
 

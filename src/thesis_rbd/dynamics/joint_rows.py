@@ -685,14 +685,16 @@ def coupling_block(ints, row_joint, rows, moved, first_i, count_i, first_k, coun
         for side_k in range(2):
             if ints[jk, BODY_A + side_k] != body:
                 continue
+            # indexed in place, not through row views: this is the Newton matrix's inner loop
+            lin, ang, to = 6 * side_k, 6 * side_k + 3, 3 + 3 * side_i
             for i in range(count_i):
-                row = rows[first_i + i]
+                r = first_i + i
                 for k in range(count_k):
-                    m = moved[first_k + k]
+                    m = first_k + k
                     total = 0.0
                     for c in range(3):
-                        total += sign * row[c] * m[6 * side_k + c]
-                        total += row[3 + 3 * side_i + c] * m[6 * side_k + 3 + c]
+                        total += sign * rows[r, c] * moved[m, lin + c]
+                        total += rows[r, to + c] * moved[m, ang + c]
                     block[i, k] += total
 
 

@@ -14,16 +14,17 @@ sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep
   step, ``kinematic.place_partners``);
 * every joint is put back together by Newton's method on all rows of its island at once, a
   SHAKE-type projection: the correction moves the bodies along M^-1 J^T dlam with the rows'
-  directions J taken at the start of the substep, dlam solving (J_now M^-1 J_start^T) dlam =
-  -C for the errors C where the bodies are now; every correction is fed back into the
-  momenta as dlam / h, so the velocities are the substep's displacement over h (projecting
-  positions alone loses (h w)^2 of the kinetic energy per step, and directions taken at the
-  end of the substep lose energy too). Iterations stop once every row holds to 1e-10 of the
-  joint's scale (1e-10 rad for angular rows; each iteration gains about two digits, and a
-  tighter bound costs an iteration in four for gaps already a million times below any
-  joint's tolerance). The matrix is made and factorised at the first iterate only (later
-  ones differ from it by the correction's size), and again where a limit is reached or left
-  on the way; a factor kept from one substep to the next converges too slowly to pay.
+  directions J taken at the start of the substep, dlam solving K dlam = -C for the errors C
+  where the bodies are now; every correction is fed back into the momenta as dlam / h, so
+  the velocities are the substep's displacement over h (projecting positions alone loses
+  (h w)^2 of the kinetic energy per step, and directions taken at the end of the substep
+  lose energy too). Iterations stop once every row holds to 1e-10 of the joint's scale
+  (1e-10 rad for angular rows; each iteration gains about two digits, and a tighter bound
+  costs an iteration in four for gaps already a million times below any joint's
+  tolerance). K = J M^-1 J^T is made and factorised once, where the substep begins
+  (``joint_newton``), and serves the motors' solve there and every iterate here (they
+  differ from it by the substep's turn); it is made again where a limit is reached or left
+  on the way. A factor kept from one substep to the next converges too slowly to pay.
 
 The Newton matrix is factorised as L U with rows of a vanishing pivot dropped
 (``joint_tree``): block by block in linear time where the island is a tree, whole where it has
@@ -41,17 +42,15 @@ from thesis_rbd._numba.jit import njit
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_motors import drive_joints
-from thesis_rbd.dynamics.joint_rows import (
-    body_pose,
-    coupling_block,
-    coupling_matrix,
-    joint_row_count,
-    joint_rows,
-    row_responses,
-    row_written,
+from thesis_rbd.dynamics.joint_newton import (
+    factor,
+    factor_at_start,
+    island_rows,
+    newton_scratch,
+    newton_solve,
 )
-from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, BODY_B, KIND, SCALE
-from thesis_rbd.dynamics.joint_tree import factor_tree, left_solve, lu_in_place, solve_tree
+from thesis_rbd.dynamics.joint_rows import row_written
+from thesis_rbd.dynamics.joint_set import ARM_A, BODY_A, SCALE
 from thesis_rbd.dynamics.kinematic import joint_partners, place_partners
 from thesis_rbd.spatial.quaternion import mul, normalize
 
@@ -60,7 +59,6 @@ __all__ = [
     "MOST_SUBSTEPS",
     "auto_substeps",
     "project_island",
-    "projection_scratch",
     "step_jointed_bodies",
 ]
 
@@ -136,7 +134,7 @@ def step_jointed_bodies(
                     start_orientation[i, k] = orientation[i, k]
         first, last = joint_start[island], joint_start[island + 1]
         tree = island_tree[island]
-        scratch = projection_scratch(
+        scratch = newton_scratch(
             joints, bodies, ints, floats, neighbour_start[first : last + 1], neighbour, tree
         )
         saved = _island_state(bodies, position, orientation, linear_momentum, angular_momentum)
@@ -191,18 +189,19 @@ def _substeps(
                 linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body,
                 external_force, drag, pf_start, pf_arm, pf_force,
             )  # fmt: skip
+        factor_at_start(joints, tree, ints, floats, frozen, position, orientation, inverse_mass,
+                        inverse_inertia_body, scratch)  # fmt: skip
         drive_joints(
-            h, joints, ints, floats, frozen, position, orientation, linear_momentum,
+            h, joints, tree, ints, floats, frozen, position, orientation, linear_momentum,
             angular_momentum, inverse_mass, inverse_inertia_body, impulse, kinematic_velocity,
-            kinematic_angular_velocity,
+            kinematic_angular_velocity, scratch,
         )  # fmt: skip
         for i in bodies:
             _drift(i, h, position, orientation, linear_momentum, angular_momentum,
                    inverse_mass, inverse_inertia_body)  # fmt: skip
         held &= project_island(
-            h, joints, bodies, tree, ints, floats, frozen, substep_position,
-            substep_orientation, position, orientation, linear_momentum, angular_momentum,
-            inverse_mass, inverse_inertia_body, impulse, scratch,
+            h, joints, bodies, tree, ints, floats, frozen, position, orientation,
+            linear_momentum, angular_momentum, impulse, scratch,
         )  # fmt: skip
     for i in bodies:
         held &= math.isfinite(
@@ -296,40 +295,9 @@ def auto_substeps(dt, joints, ints, floats, inverse_mass, impulse):
 
 
 @njit
-def projection_scratch(joints, bodies, ints, floats, neighbour_start, neighbour, tree):
-    """The arrays ``project_island`` works in for one island, made once per step and
-    reused by every substep: the rows at the substep's start and now (r, 10), each row's
-    joint (r,) and its bodies' places among ``bodies`` (r, 2) (-1: the world or frozen),
-    M^-1 J^T (r, 12), the block layout of a tree or the dense matrix of a loop, the Newton
-    step (r,), the per-body turns (b, 3), the rows kept (r,) and the rows written when the
-    factor was made (r,). Arguments as ``project_island``'s."""
-    size = 0
-    for j in joints:
-        size += joint_row_count(ints[j, KIND], floats[j])
-    row_joint = np.empty(size, np.int64)
-    row_body = np.empty((size, 2), np.int64)
-    r = 0
-    for j in joints:
-        for _ in range(joint_row_count(ints[j, KIND], floats[j])):
-            row_joint[r] = j
-            for side in range(2):
-                body = ints[j, BODY_A + side]
-                row_body[r, side] = -1 if body < 0 else np.searchsorted(bodies, body)
-            r += 1
-    layout = _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree)
-    K = np.empty((0, 0)) if tree else np.empty((size, size))
-    return (
-        np.empty((size, 10)), np.empty((size, 10)), row_joint, row_body,
-        np.empty((size, 12)), layout, K, np.empty(size), np.empty((len(bodies), 3)),
-        np.ones(size, np.bool_), np.zeros(size, np.bool_),
-    )  # fmt: skip
-
-
-@njit
 def project_island(
-    dt, joints, bodies, tree, ints, floats, frozen, saved_position, saved_orientation,
-    position, orientation, linear_momentum, angular_momentum, inverse_mass,
-    inverse_inertia_body, impulse, scratch,
+    dt, joints, bodies, tree, ints, floats, frozen, position, orientation, linear_momentum,
+    angular_momentum, impulse, scratch,
 ):  # fmt: skip
     """Hold the ``joints`` of one island at the end of a substep of length dt (module
     docstring), in place.
@@ -337,8 +305,6 @@ def project_island(
     Parameters
     ----------
     dt : float
-    ints, floats : (m, 3) int64, (m, JOINT_FLOATS) float64
-        ``JointSet`` arrays.
     joints : (j,) int64
         The island's joints, in elimination order.
     bodies : (b,) int64
@@ -346,17 +312,19 @@ def project_island(
     tree : bool
         Whether the island is a tree (solved by ``joint_tree`` in time linear in its
         joints) or has a loop (solved densely).
+    ints, floats : (m, 3) int64, (m, JOINT_FLOATS) float64
+        ``JointSet`` arrays.
     frozen : (>= n,) bool
         Static or asleep bodies: immovable here.
-    saved_position, saved_orientation : (>= n, 3), (>= n, 4) float64
-        Where the bodies began the substep: the rows' directions are taken there.
-    position ... inverse_inertia_body
+    position, orientation, linear_momentum, angular_momentum
         Body arrays (``integrate_bodies``).
     impulse : (m, 6) float64
         Each joint's linear and angular impulse on body a (the latter about a's centre of
         mass), N s and N m s, world frame: this projection's are added.
     scratch : tuple
-        ``projection_scratch`` of the island.
+        ``joint_newton.newton_scratch`` of the island, as ``factor_at_start`` left it where
+        the substep began: the rows' directions there (SHAKE), their responses and the
+        Newton matrix.
 
     Returns
     -------
@@ -365,18 +333,12 @@ def project_island(
         them there, or the state is not finite).
     """
     h = dt
-    rows, current, row_joint, row_body, moved, layout, K, step, spin, kept, factored_rows = scratch
+    rows, current, row_joint, row_body, moved, _, _, step, spin, _, factored_rows = scratch
     size = rows.shape[0]
-    # the rows' directions at the start of the substep (SHAKE): M^-1 J^T per row
-    _island_rows(joints, ints, floats, saved_position, saved_orientation, rows, row_joint, False)
-    row_responses(rows, row_joint, size, ints, frozen, saved_orientation, inverse_mass,
-                  inverse_inertia_body, moved)  # fmt: skip
-    factored = False
-    factored_rows[:] = False  # the rows written when the factor was made
     held = False
     for _ in range(JOINT_ITERATIONS):
         # the errors where the bodies are now
-        _island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
+        island_rows(joints, ints, floats, position, orientation, current, row_joint, True)
         worst = 0.0
         for k in range(size):
             j = row_joint[k]
@@ -387,27 +349,14 @@ def project_island(
         if worst <= _TOLERANCE:
             held = True
             break
-        # Newton on the impulses: how the errors change along the start directions, from
-        # the first iterate's rows (later iterates move by round-off of the step's
-        # correction, so the first factor serves them all, unless a limit was reached or
-        # left on the way: its row then joins or leaves the matrix)
+        # Newton on the impulses, with the matrix of the substep's start (the iterates move
+        # by the substep's turn from it), made again where a limit was reached or left on
+        # the way: its row then joins or leaves the matrix
         for k in range(size):
-            written = row_written(current, k)
-            if written != factored_rows[k]:
-                factored = False
-            factored_rows[k] = written
-        if tree:
-            if not factored:
-                _tree_factor(layout, ints, row_joint, current, moved)
-            rows_of, row_start, self_slot, slot_neighbour, upper, lower, kept_blocks = layout
-            solve_tree(rows_of, row_start, self_slot, slot_neighbour, upper, lower, kept_blocks,
-                       step)  # fmt: skip
-        else:
-            if not factored:
-                coupling_matrix(ints, row_joint, current, moved, size, K)
-                kept = lu_in_place(K, size)
-            left_solve(K, kept, size, step, 0)
-        factored = True
+            if row_written(current, k) != factored_rows[k]:
+                factor(tree, ints, scratch)
+                break
+        newton_solve(tree, scratch, step.reshape((size, 1)))
         # the rows' turns summed per body before any is applied: they cancel in large part
         # (a point row turns a light ball about its centre as much as its limit row turns
         # it back), which turning row by row would not do
@@ -446,59 +395,3 @@ def _turn(orientation, body, theta):
     turned = normalize(mul(turn, (q[0], q[1], q[2], q[3])))
     for c in range(4):
         orientation[body, c] = turned[c]
-
-
-@njit
-def _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree):
-    """The block layout of ``joint_tree`` for an island (empty unless ``tree``): rows and
-    row starts per joint, slots, each slot's neighbour, and the block and mask storage."""
-    p = len(joints) if tree else 0
-    rows = np.empty(p, np.int64)
-    row_start = np.empty(p + 1, np.int64)
-    self_slot = np.empty(p + 1, np.int64)
-    slots = p + (neighbour_start[p] - neighbour_start[0] if tree else 0)
-    slot_neighbour = np.full(slots, -1, np.int64)
-    row_start[0] = 0
-    self_slot[0] = 0
-    for e in range(p):
-        rows[e] = joint_row_count(ints[joints[e], KIND], floats[joints[e]])
-        row_start[e + 1] = row_start[e] + rows[e]
-        later = neighbour_start[e + 1] - neighbour_start[e]
-        for k in range(later):
-            slot_neighbour[self_slot[e] + 1 + k] = neighbour[
-                neighbour_start[e] - neighbour_start[0] + k
-            ]
-        self_slot[e + 1] = self_slot[e] + 1 + later
-    upper = np.zeros((slots, 6, 6))
-    lower = np.zeros((slots, 6, 6))
-    kept = np.zeros((p, 6), np.bool_)
-    return rows, row_start, self_slot, slot_neighbour, upper, lower, kept
-
-
-@njit
-def _tree_factor(layout, ints, row_joint, current, moved):
-    """The blocks of J_now M^-1 J_start^T in the layout, factorised by ``joint_tree``."""
-    rows, row_start, self_slot, slot_neighbour, upper, lower, kept = layout
-    for e in range(len(rows)):
-        for s in range(self_slot[e], self_slot[e + 1]):
-            f = e if s == self_slot[e] else slot_neighbour[s]
-            coupling_block(ints, row_joint, current, moved, row_start[e], rows[e],
-                           row_start[f], rows[f], upper[s])  # fmt: skip
-            if f != e:
-                coupling_block(ints, row_joint, current, moved, row_start[f], rows[f],
-                               row_start[e], rows[e], lower[s])  # fmt: skip
-    factor_tree(rows, self_slot, slot_neighbour, upper, lower, kept)
-
-
-@njit
-def _island_rows(joints, ints, floats, position, orientation, rows, row_joint, active_only):
-    """The rows of the island's ``joints`` at the given poses, and the joint of each row
-    (``active_only``: limit rows as ``joint_rows``'s ``active_limits_only``)."""
-    r = 0
-    for j in joints:
-        xa, qa = body_pose(ints[j, BODY_A], position, orientation)
-        xb, qb = body_pose(ints[j, BODY_B], position, orientation)
-        n = joint_rows(ints[j, KIND], floats[j], xa, qa, xb, qb, rows, r, active_only)
-        for k in range(r, r + n):
-            row_joint[k] = j
-        r += n

@@ -144,22 +144,30 @@ def lu_in_place(D, r):
 
 
 @njit
-def left_solve(D, kept, r, x, offset):
-    """x[offset:offset + r] <- D^-1 x[...] with the factor of ``lu_in_place``."""
+def left_solve(D, kept, r, X, offset):
+    """X[offset:offset + r] <- D^-1 X[...] with the factor of ``lu_in_place``, for each
+    column of X (n, m) at once (a vector as (n, 1))."""
+    m = X.shape[1]
     for i in range(r):
         if not kept[i]:
-            x[offset + i] = 0.0
+            X[offset + i, :] = 0.0
             continue
         for k in range(i):
             if kept[k]:
-                x[offset + i] -= D[i, k] * x[offset + k]
+                factor = D[i, k]
+                for col in range(m):
+                    X[offset + i, col] -= factor * X[offset + k, col]
     for i in range(r - 1, -1, -1):
         if not kept[i]:
             continue
         for k in range(i + 1, r):
             if kept[k]:
-                x[offset + i] -= D[i, k] * x[offset + k]
-        x[offset + i] /= D[i, i]
+                factor = D[i, k]
+                for col in range(m):
+                    X[offset + i, col] -= factor * X[offset + k, col]
+        pivot = D[i, i]
+        for col in range(m):
+            X[offset + i, col] /= pivot
 
 
 @njit
@@ -235,23 +243,27 @@ def factor_tree(rows, self_slot, neighbour, upper, lower, kept):
 
 
 @njit
-def solve_tree(rows, row_start, self_slot, neighbour, upper, lower, kept, x):
-    """Solve K x = b in place of b with the factor of ``factor_tree``."""
+def solve_tree(rows, row_start, self_slot, neighbour, upper, lower, kept, X):
+    """Solve K X = B in place of B (n, m), every column at once, with the factor of
+    ``factor_tree``."""
     p = len(rows)
+    m = X.shape[1]
     for e in range(p):
         for sf in range(self_slot[e] + 1, self_slot[e + 1]):
             f = neighbour[sf]
             for i in range(rows[f]):
-                total = 0.0
                 for c in range(rows[e]):
-                    total += lower[sf, i, c] * x[row_start[e] + c]
-                x[row_start[f] + i] -= total
+                    factor = lower[sf, i, c]
+                    if factor != 0.0:
+                        for col in range(m):
+                            X[row_start[f] + i, col] -= factor * X[row_start[e] + c, col]
     for e in range(p - 1, -1, -1):
         for sf in range(self_slot[e] + 1, self_slot[e + 1]):
             f = neighbour[sf]
             for c in range(rows[e]):
-                total = 0.0
                 for k in range(rows[f]):
-                    total += upper[sf, c, k] * x[row_start[f] + k]
-                x[row_start[e] + c] -= total
-        left_solve(upper[self_slot[e]], kept[e], rows[e], x, row_start[e])
+                    factor = upper[sf, c, k]
+                    if factor != 0.0:
+                        for col in range(m):
+                            X[row_start[e] + c, col] -= factor * X[row_start[f] + k, col]
+        left_solve(upper[self_slot[e]], kept[e], rows[e], X, row_start[e])

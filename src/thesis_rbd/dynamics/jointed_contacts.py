@@ -400,7 +400,7 @@ def _hold_joints(velocity, joint_jacobian, joint_response, K, kept):
     if r == 0:
         return
     t = joint_jacobian @ velocity
-    left_solve(K, kept, r, t, 0)
+    left_solve(K, kept, r, t.reshape((r, 1)), 0)
     velocity -= joint_response.T @ t
 
 
