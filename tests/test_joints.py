@@ -383,7 +383,8 @@ def test_factor_drops_redundant_rows_and_solves_the_rest(size, redundant, seed):
     K = J @ J.T
     rhs = K @ rng.normal(size=(size, 3))  # consistent, three columns solved at once
     factor = K.copy()
-    kept = lu_in_place(factor, size)
+    kept = np.empty(size, bool)
+    lu_in_place(factor, size, kept)
     x = rhs.copy()
     left_solve(factor, kept, size, x, 0)
     assert kept.sum() == np.linalg.matrix_rank(K)

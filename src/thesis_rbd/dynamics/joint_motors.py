@@ -323,7 +323,8 @@ def _braked_masses(S, swept, floats):
     if not capped:
         return out
     D = S.copy()
-    kept = lu_in_place(D, count)
+    kept = np.empty(count, np.bool_)
+    lu_in_place(D, count, kept)
     unit = np.empty(count)
     for e in range(count):
         if not kept[e]:

@@ -77,7 +77,7 @@ def newton_scratch(joints, bodies, ints, floats, neighbour_start, neighbour, tre
     )  # fmt: skip
 
 
-@njit
+@njit(allocates=False)
 def factor_at_start(joints, tree, ints, floats, frozen, position, orientation, inverse_mass,
                     inverse_inertia_body, scratch):  # fmt: skip
     """Where the substep begins (the bodies at ``position``, ``orientation``): the island's
@@ -93,7 +93,7 @@ def factor_at_start(joints, tree, ints, floats, frozen, position, orientation, i
     factor(tree, ints, scratch)
 
 
-@njit
+@njit(allocates=False)
 def factor(tree, ints, scratch):
     """K = current M^-1 rows^T of the scratch, factorised in place, and which rows of
     ``current`` were written (acting) when it was made."""
@@ -105,10 +105,10 @@ def factor(tree, ints, scratch):
         _tree_factor(layout, ints, row_joint, current, moved)
     else:
         coupling_matrix(ints, row_joint, current, moved, size, K)
-        kept[:] = lu_in_place(K, size)
+        lu_in_place(K, size, kept)
 
 
-@njit
+@njit(allocates=False)
 def newton_solve(tree, scratch, X):
     """X (r, m) <- K^-1 X, each column, with the factor ``factor`` made (dropped rows get
     zero)."""
@@ -120,7 +120,7 @@ def newton_solve(tree, scratch, X):
         left_solve(K, kept, X.shape[0], X, 0)
 
 
-@njit
+@njit(allocates=False)
 def island_rows(joints, ints, floats, position, orientation, rows, row_joint, active_only):
     """The rows of the island's ``joints`` at the given poses into ``rows``, and the joint of
     each row (``active_only``: limit rows as ``joint_rows``'s ``active_limits_only``)."""
@@ -161,7 +161,7 @@ def _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree):
     return rows, row_start, self_slot, slot_neighbour, upper, lower, kept
 
 
-@njit
+@njit(allocates=False)
 def _tree_factor(layout, ints, row_joint, current, moved):
     """The blocks of current M^-1 rows^T in the layout, factorised by ``joint_tree``."""
     rows, row_start, self_slot, slot_neighbour, upper, lower, kept = layout

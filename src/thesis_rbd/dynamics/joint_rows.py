@@ -58,6 +58,7 @@ from thesis_rbd.dynamics.joint_set import (
     LOWER,
     NORMAL_B,
     RELATIVE_ORIENTATION,
+    SCALE,
     UPPER,
 )
 from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
@@ -94,6 +95,14 @@ GENERIC = JOINT_KINDS["generic"]
 ROWS_OF_KIND = (3, 5, 6, 5, 1, 0)
 # How each axis of a universal or generic joint moves.
 FREE, LOCKED, LIMITED = 0, 1, 2
+# A limit row acts where its joint is beyond its limit or within this of it (rad, or the
+# joint's scale for travel and lengths). Within it, its error reads as zero: the row keeps
+# the projection's later, smaller corrections from moving the joint along it, instead of
+# leaving the Newton matrix at one iterate (or substep) and joining it again at the next,
+# which made the matrix again on most substeps of an arm resting on a limit. The band is far
+# below any motion a step resolves, and a joint leaving its limit leaves it at its own rate
+# (``_beyond``)
+_AT_LIMIT = 1e-6
 
 
 @njit(allocates=False)
@@ -259,11 +268,11 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
             k += 1
     if f[CONE] < math.inf:
         n, angle = cone_angle(f, qa, qb)
-        beyond = max(angle - f[CONE], 0.0)
-        if active_limits_only and beyond == 0.0:
+        beyond = angle - f[CONE]
+        if active_limits_only and beyond < -_AT_LIMIT:
             write_row(rows, k, zero, zero, zero, 0.0)
         else:
-            write_row(rows, k, zero, n, (-n[0], -n[1], -n[2]), beyond)
+            write_row(rows, k, zero, n, (-n[0], -n[1], -n[2]), max(beyond, 0.0))
         k += 1
     if f[LOWER] > -math.inf or f[UPPER] < math.inf:
         _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only)
@@ -339,9 +348,9 @@ def _axis_rows(f, xa, qa, xb, qb, ra, gap, rows, first, active_limits_only):
         if axis_state(f, axis) != LIMITED:
             continue
         lin, ang_a, ang_b, position = _frame_axis(f, axis, qa, qb, fb, fa, ra, arm, gap)
-        lower, upper = f[AXIS_LOWER + axis], f[AXIS_UPPER + axis]
-        beyond = position - lower if position < lower else max(position - upper, 0.0)
-        if active_limits_only and beyond == 0.0:
+        near = _AT_LIMIT * (f[SCALE] if axis < 3 else 1.0)
+        at, beyond = _beyond(position, f[AXIS_LOWER + axis], f[AXIS_UPPER + axis], near)
+        if active_limits_only and not at:
             write_row(rows, k, zero, zero, zero, 0.0)
         else:
             write_row(rows, k, lin, ang_a, ang_b, beyond)
@@ -430,12 +439,25 @@ def _along_line(ra, rb, gap):
 def _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only):
     """The limit row of a hinge, slider or distance joint (module docstring)."""
     lin, ang_a, ang_b, position = _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap)
-    beyond = position - f[LOWER] if position < f[LOWER] else max(position - f[UPPER], 0.0)
-    if active_limits_only and beyond == 0.0:
+    near = _AT_LIMIT * (1.0 if kind == REVOLUTE or kind == SPHERICAL else f[SCALE])
+    at, beyond = _beyond(position, f[LOWER], f[UPPER], near)
+    if active_limits_only and not at:
         zero = (0.0, 0.0, 0.0)
         write_row(rows, k, zero, zero, zero, 0.0)
     else:
         write_row(rows, k, lin, ang_a, ang_b, beyond)
+
+
+@njit(allocates=False)
+def _beyond(position, lower, upper, near):
+    """(at, beyond) of a position against its limits: how far beyond the nearer one it is
+    (0 within them), and whether it is at or beyond one, to within ``near``: a row the
+    projection held at its limit reads as a hair beyond it or a hair within from one
+    iterate, or substep, to the next, and must not leave the Newton matrix and join it
+    again each time."""
+    if position - lower < 0.5 * (upper - lower):
+        return position - lower <= near, min(position - lower, 0.0)
+    return upper - position <= near, max(position - upper, 0.0)
 
 
 @njit(allocates=False)
@@ -643,7 +665,7 @@ def _state(body, position, orientation, velocity, angular_velocity):
     )
 
 
-@njit
+@njit(allocates=False)
 def row_responses(rows, row_joint, count, ints, frozen, orientation, inverse_mass,
                   inverse_inertia_body, moved):  # fmt: skip
     """M^-1 J^T of rows[:count] (row k of joint row_joint[k]) into moved (c, 12): the
@@ -668,7 +690,7 @@ def row_responses(rows, row_joint, count, ints, frozen, orientation, inverse_mas
                 moved[k, 6 * side + 3 + c] = turn[c]
 
 
-@njit
+@njit(allocates=False)
 def coupling_block(ints, row_joint, rows, moved, first_i, count_i, first_k, count_k, block):
     """block[:count_i, :count_k] <- J_i M^-1 J_k^T for the ``count_i`` rows of one joint from
     ``first_i`` against the ``count_k`` rows of one joint from ``first_k`` (``moved`` from
@@ -698,7 +720,7 @@ def coupling_block(ints, row_joint, rows, moved, first_i, count_i, first_k, coun
                     block[i, k] += total
 
 
-@njit
+@njit(allocates=False)
 def coupling_matrix(ints, row_joint, rows, moved, size, K):
     """K[:size, :size] <- J M^-1 J^T of rows[:size] (each joint's rows consecutive), block by
     block (``coupling_block``)."""

@@ -235,7 +235,7 @@ def _restore_island(bodies, saved, position, orientation, linear_momentum, angul
         angular_momentum[i] = saved[local, 10:13]
 
 
-@njit
+@njit(allocates=False)
 def _kick(
     i, h, solved, substep_position, substep_orientation, position, orientation,
     linear_momentum, angular_momentum, inverse_mass, inverse_inertia_body, external_force,
@@ -257,7 +257,7 @@ def _kick(
             angular_momentum[i, k] += h * T[k]
 
 
-@njit
+@njit(allocates=False)
 def _drift(i, h, position, orientation, linear_momentum, angular_momentum, inverse_mass,
            inverse_inertia_body):  # fmt: skip
     """The position half: x += h v, q turned freely with L held."""
@@ -294,7 +294,7 @@ def auto_substeps(dt, joints, ints, floats, inverse_mass, impulse):
     return min(max(math.ceil(dt * fastest / _STIFF_STEP), 1), MOST_SUBSTEPS)
 
 
-@njit
+@njit(allocates=False)
 def project_island(
     dt, joints, bodies, tree, ints, floats, frozen, position, orientation, linear_momentum,
     angular_momentum, impulse, scratch,
@@ -383,7 +383,7 @@ def project_island(
     return held
 
 
-@njit
+@njit(allocates=False)
 def _turn(orientation, body, theta):
     """Turn body's orientation by the world rotation vector theta (exactly)."""
     angle = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])

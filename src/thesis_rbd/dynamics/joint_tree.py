@@ -120,15 +120,15 @@ def later_neighbours(a, b, static, island_joints, joint_start):
     return start.astype(np.int64), position[cols].astype(np.int64)
 
 
-@njit
-def lu_in_place(D, r):
+@njit(allocates=False)
+def lu_in_place(D, r, kept):
     """L U of the r x r leading block of D in place, without pivoting (D is J M^-1 J^T taken
-    at two nearby poses, nearly symmetric positive semi-definite). Returns which rows are
-    kept: a row whose pivot vanishes (below ``_REDUNDANT`` of its row's largest entry left of
-    and on the diagonal, as the elimination left it) is redundant, its constraint held by the
-    others, and is dropped."""
-    kept = np.ones(r, np.bool_)
+    at two nearby poses, nearly symmetric positive semi-definite). Writes which rows are kept
+    into kept[:r] (bool): a row whose pivot vanishes (below ``_REDUNDANT`` of its row's
+    largest entry left of and on the diagonal, as the elimination left it) is redundant, its
+    constraint held by the others, and is dropped."""
     for j in range(r):
+        kept[j] = True
         largest = 0.0
         for k in range(j + 1):
             largest = max(largest, abs(D[j, k]))
@@ -140,10 +140,9 @@ def lu_in_place(D, r):
             D[i, j] = factor
             for k in range(j + 1, r):
                 D[i, k] -= factor * D[j, k]
-    return kept
 
 
-@njit
+@njit(allocates=False)
 def left_solve(D, kept, r, X, offset):
     """X[offset:offset + r] <- D^-1 X[...] with the factor of ``lu_in_place``, for each
     column of X (n, m) at once (a vector as (n, 1))."""
@@ -170,7 +169,7 @@ def left_solve(D, kept, r, X, offset):
             X[offset + i, col] /= pivot
 
 
-@njit
+@njit(allocates=False)
 def _right_divide(D, kept, r, B, rows):
     """B[:rows, :r] <- B D^-1 (each row y solves y D = b) with the factor of D."""
     for row in range(rows):
@@ -191,7 +190,7 @@ def _right_divide(D, kept, r, B, rows):
                     B[row, i] -= B[row, k] * D[k, i]
 
 
-@njit
+@njit(allocates=False)
 def _slot(self_slot, neighbour, e, f):
     """The slot holding the blocks of island positions e < f (or e == f)."""
     if e == f:
@@ -202,7 +201,7 @@ def _slot(self_slot, neighbour, e, f):
     return -1
 
 
-@njit
+@njit(allocates=False)
 def factor_tree(rows, self_slot, neighbour, upper, lower, kept):
     """Block L U of an island's matrix in elimination order, in place (module docstring).
 
@@ -221,7 +220,7 @@ def factor_tree(rows, self_slot, neighbour, upper, lower, kept):
     p = len(rows)
     for e in range(p):
         s = self_slot[e]
-        kept[e, : rows[e]] = lu_in_place(upper[s], rows[e])
+        lu_in_place(upper[s], rows[e], kept[e])
         for sf in range(s + 1, self_slot[e + 1]):
             f = neighbour[sf]
             _right_divide(upper[s], kept[e], rows[e], lower[sf], rows[f])
@@ -242,7 +241,7 @@ def factor_tree(rows, self_slot, neighbour, upper, lower, kept):
                         target[i, k] -= total
 
 
-@njit
+@njit(allocates=False)
 def solve_tree(rows, row_start, self_slot, neighbour, upper, lower, kept, X):
     """Solve K X = B in place of B (n, m), every column at once, with the factor of
     ``factor_tree``."""

@@ -157,7 +157,8 @@ def solve_jointed_island(
     joint_response = _times_inverse_mass(joint_jacobian, bodies, inverse_mass, inverse_inertia)
     r = joint_jacobian.shape[0]
     K = joint_jacobian @ joint_response.T
-    kept = lu_in_place(K, r)
+    kept = np.empty(r, np.bool_)
+    lu_in_place(K, r, kept)
     c = e - s
     # the contacts' rows, then each limit's as a frictionless contact of its own
     limit_jacobian, limit_bias, limit_scale = _limit_rows(
