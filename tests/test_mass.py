@@ -43,6 +43,18 @@ def test_cylinder_converges_to_the_analytic_limit():
     np.testing.assert_allclose(props.inertia, expected, rtol=1e-5, atol=1e-12)
 
 
+def test_capsule_converges_to_the_analytic_limit():
+    """A cylinder of length h between hemispheres of radius r: V = pi r^2 (h + 4 r / 3);
+    about its axis I = m_c r^2 / 2 + 2 m_s r^2 / 5 (cylinder and ball parts)."""
+    r, h = 0.3, 1.0
+    props = rbd.mass_properties(rbd.shapes.capsule(r, h, 256), density=1.0)
+    cylinder, ball = np.pi * r**2 * h, 4.0 / 3.0 * np.pi * r**3
+    assert props.volume == pytest.approx(cylinder + ball, rel=1e-3)
+    axial = cylinder * r**2 / 2 + 2 * ball * r**2 / 5
+    assert props.inertia[2, 2] == pytest.approx(axial, rel=2e-3)
+    np.testing.assert_allclose(props.center_of_mass, 0, atol=1e-12)
+
+
 def test_regular_prism_matches_its_polygon_formula():
     """An n-gon prism is exact: V = n/2 R^2 sin(2 pi/n) h."""
     n, r, h = 7, 0.8, 1.5

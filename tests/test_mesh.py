@@ -63,6 +63,7 @@ def test_degenerate_faces_are_reported_not_rejected():
         (rbd.shapes.box((1, 2, 3)), 12),
         (rbd.shapes.icosphere(0.5, 3), 1280),
         (rbd.shapes.cylinder(0.5, 2.0, 40), 160),
+        (rbd.shapes.capsule(0.3, 1.0, 16), 512),
         (rbd.shapes.torus(1.0, 0.3, 50, 50), 5000),
     ],
 )
@@ -93,6 +94,7 @@ def test_thesis_torus_lies_on_the_analytic_surface():
         (rbd.shapes.icosphere, {"radius": 0.0}, "radius"),
         (rbd.shapes.icosphere, {"subdivisions": 1.5}, "subdivisions"),
         (rbd.shapes.cylinder, {"sections": 2}, "sections"),
+        (rbd.shapes.capsule, {"length": 0.0}, "length"),
         (rbd.shapes.torus, {"major_radius": 0.2, "minor_radius": 0.3}, "minor_radius"),
     ],
 )

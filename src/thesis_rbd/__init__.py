@@ -24,7 +24,7 @@ from thesis_rbd.collision.broad_phase.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
 from thesis_rbd.trajectory import Trajectory, simulate
-from thesis_rbd.urdf import Robot, load_urdf
+from thesis_rbd.urdf import Robot, load_mjcf, load_urdf
 from thesis_rbd.world import NonFiniteStateError, World
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "distance",
     "distance_batch",
     "load_mesh",
+    "load_mjcf",
     "load_scene",
     "load_urdf",
     "mass_properties",

@@ -11,7 +11,7 @@ import numpy as np
 from thesis_rbd._validate import as_finite_array, as_positive_scalar
 from thesis_rbd.geometry.mesh import TriangleMesh
 
-__all__ = ["MAX_FACES", "box", "cylinder", "icosphere", "torus"]
+__all__ = ["MAX_FACES", "box", "capsule", "cylinder", "icosphere", "torus"]
 
 # The most faces a generated shape may have: a few hundred MB with its tree. Asked for more,
 # a shape is refused before anything is allocated (an icosphere of 30 subdivisions would
@@ -68,6 +68,21 @@ def cylinder(radius: float = 0.5, height: float = 1.0, sections: int = 32) -> Tr
     _faces_at_most(4 * sections, f"a cylinder of sections = {sections}")
     return TriangleMesh.from_trimesh(
         trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
+    )
+
+
+def capsule(radius: float = 0.5, length: float = 1.0, sections: int = 16) -> TriangleMesh:
+    """Capsule along z: a cylinder of ``length`` between hemispheres of ``radius`` (ends at
+    z = +-(length/2 + radius)), ``sections`` around and along each cap (2 sections^2
+    faces)."""
+    import trimesh
+
+    radius = as_positive_scalar(radius, "radius")
+    length = as_positive_scalar(length, "length")
+    sections = _at_least(sections, "sections", 3)
+    _faces_at_most(2 * sections**2, f"a capsule of sections = {sections}")
+    return TriangleMesh.from_trimesh(
+        trimesh.creation.capsule(height=length, radius=radius, count=[sections, sections])
     )
 
 

@@ -9,19 +9,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_unit_quaternion
-from thesis_rbd.dynamics.body_builder import body_fields, body_shape
-from thesis_rbd.dynamics.joint_set import check_reach
-from thesis_rbd.geometry import shapes
-from thesis_rbd.spatial.quaternion import quat_from_matrix
 from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.urdf.collision_shapes import collision_meshes
 from thesis_rbd.urdf.link_mass import combine, link_mass
+from thesis_rbd.urdf.plan import (
+    ModelPlan,
+    PlannedJoint,
+    body_arguments,
+    build,
+    check_joint_reach,
+    hinge_limits,
+)
 from thesis_rbd.urdf.robot import Robot, limit_or_inf
 
 __all__ = ["load_urdf"]
@@ -29,12 +32,6 @@ __all__ = ["load_urdf"]
 _MOVABLE = ("revolute", "continuous", "prismatic", "planar")
 # URDF's planar joint: free travel along the frame's x and y and turn about z (its axis)
 _PLANAR_AXES = ("free", "free", "locked", "locked", "locked", "free")
-# density of the marker cube that stands for a link without collision geometry
-_MARKER_DENSITY = 1000.0
-
-
-# How far beyond +-pi a hinge limit may be written and still mean +-pi (rad)
-_PI_ROUNDING = 1e-3
 
 
 @dataclass
@@ -47,18 +44,6 @@ class _Body:
     parts: list = field(default_factory=list)  # (mass, (4, 4) link -> root frame) per link
     shapes: list = field(default_factory=list)  # (TriangleMesh, (4, 4) pose in the root frame)
     static: bool = False
-
-
-@dataclass
-class _Joint:
-    """One world joint to add, its geometry in world coordinates now."""
-
-    name: str
-    kind: str
-    child: int
-    parent: int | None
-    anchor: np.ndarray
-    options: dict
 
 
 def load_urdf(
@@ -153,23 +138,7 @@ def load_urdf(
         plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
-    return _build(world, plan, self_collision, model.robot.name)
-
-
-@dataclass
-class _Plan:
-    """Everything ``load_urdf`` adds, checked: bodies (``add_body`` keywords), joints, the
-    body of every link, the movable joints (plan index, name, effort and velocity caps, and
-    the URDF angle at the world joint's zero) and
-    the (child, parent) body pairs of the URDF tree, and each mimic joint's (leader,
-    multiplier, offset)."""
-
-    bodies: list[dict]
-    joints: list[_Joint]
-    link_body: dict[str, int]
-    movable: list[tuple[int, str, float, float, float]]
-    tree_pairs: list[tuple[int, int]]
-    mimics: dict[str, tuple[str, float, float]]
+    return build(world, plan, self_collision, model.robot.name)
 
 
 def _tree_order(robot) -> tuple[str, list]:
@@ -233,7 +202,7 @@ def _mimics(robot) -> dict[str, tuple[str, float, float]]:
 
 def _plan(
     robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool, inertia: str
-) -> _Plan:
+) -> ModelPlan:
     """The bodies and joints a URDF model becomes, checked (see ``load_urdf``)."""
     for joint in robot.joints:
         if joint.type not in (*_MOVABLE, "fixed", "floating"):
@@ -271,7 +240,7 @@ def _plan(
     )
     joints, movable, pairs = [], [], []
     if fixed_base and not groups[0].static:
-        joints.append(_Joint("fixed_base", "fixed", 0, None, base[:3, 3].copy(), {}))
+        joints.append(PlannedJoint("fixed_base", "fixed", 0, None, base[:3, 3].copy(), {}))
     for joint in robot.joints:  # URDF order, as pybullet numbers them
         child, parent = group_of[joint.child], group_of[joint.parent]
         if child == parent:
@@ -280,7 +249,7 @@ def _plan(
         if joint.type == "floating":
             continue
         planned = _joint(joint, child, parent, pose[joint.child])
-        _check_reach(planned, bodies, sizes)
+        check_joint_reach(planned, bodies, sizes)
         if joint.type in _MOVABLE:
             limit = joint.limit
             movable.append((
@@ -290,79 +259,31 @@ def _plan(
                 -planned.options.get("ref", 0.0),
             ))  # fmt: skip
         joints.append(planned)
-    return _Plan(list(bodies), joints, {k: group_of[k] for k in links}, movable, pairs, mimics)
+    return ModelPlan(list(bodies), joints, {k: group_of[k] for k in links}, movable, pairs, mimics)
 
 
 def _body_arguments(
     group: _Body, links: dict, urdf_dir: Path, is_root: bool, inertia_from_file: bool
 ) -> tuple[dict, float]:
-    """``add_body`` keywords of one group of welded links, checked by a dry run of the body
-    builder (so that ``add_body`` cannot fail half-way through a model), and the body's
-    bounding radius about its centre of mass (m). Without ``inertia_from_file`` the body's
-    centre of mass and inertia are its shapes' at the links' summed mass."""
+    """``add_body`` keywords of one group of welded links and its bounding radius
+    (``plan.body_arguments``); its collision shapes are its links' ``<collision>``
+    elements."""
     placed = []
     for name, (_, T) in zip(group.links, group.parts, strict=True):
         placed += [
             (mesh, T @ pose)
             for mesh, pose in collision_meshes(links[name], urdf_dir, not group.static)
         ]
-    total = combine(group.parts)
-    if total.mass == 0.0 and not group.static:
-        raise ValueError(
-            f"link {group.root!r} moves but has no mass (no <inertial>, or mass 0, on it and "
-            "the links welded to it)"
-            + (": a root link of zero mass loads with fixed_base=True" if is_root else "")
-        )
-    kwargs = {"name": group.root, "collidable": bool(placed)}
-    if not placed:
-        # a link without collision geometry still needs a mesh: a non-colliding cube at its
-        # centre of mass, as big as the link's mass in water (1 cm for a massless static one)
-        side = (total.mass / _MARKER_DENSITY) ** (1.0 / 3.0) if total.mass > 0.0 else 0.01
-        placed = [
-            (
-                shapes.box((side, side, side)),
-                transform_from_pose(total.center_of_mass, (0.0, 0.0, 0.0, 1.0)),
-            )
-        ]
-    kwargs["shapes"] = placed
-    if group.static:
-        kwargs["static"] = True
-    elif inertia_from_file:
-        kwargs.update(mass=total.mass, center_of_mass=total.center_of_mass, inertia=total.inertia)
-    else:
-        kwargs["mass"] = total.mass
-    try:
-        mesh, parts = body_shape(None, placed)
-        fields = body_fields(
-            mesh, parts=parts, **{k: v for k, v in kwargs.items() if k not in ("name", "shapes")}
-        )
-    except ValueError as exc:
-        raise ValueError(f"link {group.root!r}: {exc}") from exc
-    # add_body places the body's centre of mass (the builder's, for a static body too)
-    kwargs["position"] = group.pose[:3, :3] @ fields["center_of_mass_local"] + group.pose[:3, 3]
-    kwargs["orientation"] = quat_from_matrix(group.pose[:3, :3])
-    return kwargs, fields["size"]
+    return body_arguments(group.root, group.pose, placed, combine(group.parts), group.static,
+                          inertia_from_file, is_root)  # fmt: skip
 
 
-def _check_reach(joint: _Joint, bodies, sizes) -> None:
-    """Refuse, before anything is added, a joint whose origin ``add_joint`` would refuse as
-    far from both its links (``joint_set.check_reach``)."""
-    if joint.parent is None:
-        return
-    ends = (joint.child, joint.parent)
-    try:
-        check_reach(joint.anchor, np.array([bodies[k]["position"] for k in ends]),
-                    np.array([sizes[k] for k in ends]), "its origin")  # fmt: skip
-    except ValueError as exc:
-        raise ValueError(f"joint {joint.name!r}: {exc}") from exc
-
-
-def _joint(joint, child: int, parent: int, frame: np.ndarray) -> _Joint:
+def _joint(joint, child: int, parent: int, frame: np.ndarray) -> PlannedJoint:
     """One URDF joint as a world joint, checked; ``frame`` (4, 4) is its child link's world
     pose now, where URDF places the joint frame."""
     anchor = frame[:3, 3].copy()
     if joint.type == "fixed":
-        return _Joint(joint.name, "fixed", child, parent, anchor, {})
+        return PlannedJoint(joint.name, "fixed", child, parent, anchor, {})
     axis = np.asarray((1.0, 0.0, 0.0) if joint.axis is None else joint.axis, dtype=float)
     length = float(np.linalg.norm(axis))
     if not (math.isfinite(length) and length > 0.0):
@@ -385,54 +306,16 @@ def _joint(joint, child: int, parent: int, frame: np.ndarray) -> _Joint:
         x = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
         x /= np.linalg.norm(x)
         options.update(axis=np.stack([x, np.cross(axis, x)]), axes=_PLANAR_AXES)
-        return _Joint(joint.name, "generic", child, parent, anchor, options)
+        return PlannedJoint(joint.name, "generic", child, parent, anchor, options)
     options["axis"] = axis
     limit = joint.limit
     if joint.type != "continuous" and limit is not None and None not in (limit.lower, limit.upper):
         lower, upper = float(limit.lower), float(limit.upper)
-        if not lower <= upper:
-            raise ValueError(f"joint {joint.name!r}: lower limit {lower} above upper {upper}")
         if joint.type == "revolute":
-            # pi written to a few digits (3.1416) is pi
-            lower = max(lower, -math.pi) if lower >= -math.pi - _PI_ROUNDING else lower
-            upper = min(upper, math.pi) if upper <= math.pi + _PI_ROUNDING else upper
-        if joint.type == "revolute" and not -math.pi <= lower <= upper <= math.pi:
-            if not upper - lower < 2.0 * math.pi:
-                raise ValueError(
-                    f"joint {joint.name!r}: limits ({lower}, {upper}) span a full turn or "
-                    "more, which a hinge's angle cannot tell apart"
-                )
-            # the world joint's zero mid-range (``add_joint``'s ``ref``): its limits then lie
-            # within [-pi, pi], and the Robot adds the offset back to what it reads
-            offset = 0.5 * (lower + upper)
-            options["ref"] = -offset
-            lower, upper = lower - offset, upper - offset
-        options["limits"] = (lower, upper)
+            options.update(hinge_limits(joint.name, lower, upper))
+        elif not lower <= upper:
+            raise ValueError(f"joint {joint.name!r}: lower limit {lower} above upper {upper}")
+        else:
+            options["limits"] = (lower, upper)
     kind = "prismatic" if joint.type == "prismatic" else "revolute"
-    return _Joint(joint.name, kind, child, parent, anchor, options)
-
-
-def _build(world, plan: _Plan, self_collision: bool, name: str) -> Robot:
-    """Add a checked plan to the world and return its Robot."""
-    index = [world.add_body(**kwargs) for kwargs in plan.bodies]
-    joints = [
-        world.add_joint(j.kind, index[j.child], None if j.parent is None else index[j.parent],
-                        j.anchor, name=j.name, **j.options)
-        for j in plan.joints
-    ]  # fmt: skip
-    # jointed bodies never collide already; the exclusions also cover floating joints and,
-    # without self_collision, links that are not neighbours
-    pairs = combinations(range(len(index)), 2) if not self_collision else plan.tree_pairs
-    for a, b in pairs:
-        world.exclude_pair(index[a], index[b])
-    return Robot(
-        world, name,
-        {link: index[g] for link, g in plan.link_body.items()},
-        [joints[k] for k, *_ in plan.movable],
-        [n for _, n, *_ in plan.movable],
-        [f for _, _, f, _, _ in plan.movable],
-        [w for _, _, _, w, _ in plan.movable],
-        joints,
-        plan.mimics,
-        [offset for *_, offset in plan.movable],
-    )  # fmt: skip
+    return PlannedJoint(joint.name, kind, child, parent, anchor, options)
