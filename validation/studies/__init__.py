@@ -47,6 +47,7 @@ from validation.studies import (
     predicate_cost,
     query_benchmarks,
     query_costs,
+    robot_benchmarks,
     sap_benchmarks,
     stability_suite,
     startup,
@@ -83,6 +84,7 @@ STUDIES: dict[str, ModuleType] = {
         step_benchmarks,
         joint_benchmarks,
         urdf_survey,
+        robot_benchmarks,
         startup,
     )
 }

@@ -59,6 +59,7 @@ from thesis_rbd.dynamics.joint_set import (
     MOTOR_TARGET,
     NO_MOTOR,
     SERVO_MOTOR,
+    SERVO_VELOCITY,
     SPRING_REST,
     SPRING_STIFFNESS,
     TORQUE_MOTOR,
@@ -169,6 +170,13 @@ def drive_joints(
                 velocity += spring / mass
             if f[FRICTION] > 0.0:
                 applied[e, 2] += friction_impulse(h, f[FRICTION], velocity, mass, applied[e, 2])
+    # a servo's target moves on at its velocity
+    for j in swept:
+        if int(floats[j, MOTOR]) == SERVO_MOTOR and floats[j, SERVO_VELOCITY] != 0.0:
+            target = floats[j, MOTOR_TARGET] + h * floats[j, SERVO_VELOCITY]
+            if ints[j, KIND] == REVOLUTE:  # kept in (-pi, pi], as set
+                target -= 2.0 * math.pi * math.ceil((target - math.pi) / (2.0 * math.pi))
+            floats[j, MOTOR_TARGET] = target
     # the axis rows' impulses, and the held joint rows' reactions to them
     lam = np.empty(count)
     for e in range(count):
@@ -360,13 +368,17 @@ def _servo_speed(h, kind, f, error, moved):
     mechanism; a capped servo that only brakes on arriving overshoots and rings), and, for
     a hinge, no more than ``_SERVO_TURN`` per substep (the joint's projection follows a turn
     of that size; a rate that grew as 1 / h would defeat the substeps a failed projection
-    takes again)."""
+    takes again). A target moving at the servo's velocity is met where it will be at the
+    substep's end: that rate is added to the closing one (the braking bounds the closing
+    rate, relative to the target)."""
     most = f[MOTOR_SPEED]
+    closing = most
     if f[MOTOR_MAX] < math.inf:
-        most = min(most, math.sqrt(f[MOTOR_MAX] / moved * abs(error)))
+        closing = min(closing, math.sqrt(f[MOTOR_MAX] / moved * abs(error)))
     if kind == REVOLUTE:
         most = min(most, _SERVO_TURN / h)
-    return min(max(error / h, -most), most)
+    rate = min(max(error / h, -closing), closing) + f[SERVO_VELOCITY]
+    return min(max(rate, -most), most)
 
 
 @njit

@@ -27,7 +27,8 @@ bodies' own frames at creation, so the joint is zero where it was made:
 * its motor (``joint_motors``): none, a velocity target (rad/s or m/s) with the most torque
   or force it may use, a set torque (N m) or force (N), a position target with stiffness
   (N m/rad or N/m) and damping (N m s/rad or N s/m), or a servo (a position target held
-  rigidly, with the most torque or force and speed it may use);
+  rigidly, with the most torque or force and speed it may use, and the rate the target
+  moves at, rad/s or m/s: a target on a trajectory is reached where it will be);
 * the forces along its axis row that no one drives (``joint_forces``): a distance joint's
   spring (stiffness N/m towards its rest length, m), a viscous damping (a hinge's N m s/rad,
   a slider's or a spring's N s/m) and a hinge's or slider's Coulomb friction (N m or N),
@@ -98,7 +99,8 @@ MOTOR, MOTOR_TARGET, MOTOR_MAX, MOTOR_STIFFNESS, MOTOR_DAMPING, MOTOR_SPEED = ra
 SPRING_STIFFNESS, SPRING_REST, DAMPING, FRICTION = range(32, 36)
 CONE = 36
 AXIS_LOWER, AXIS_UPPER = 37, 43
-JOINT_FLOATS = 49
+SERVO_VELOCITY = 49
+JOINT_FLOATS = 50
 # Motor codes in the MOTOR column: none, a velocity target with a force cap, a set torque, a
 # position target with stiffness and damping, a servo (the position held as a constraint).
 NO_MOTOR, VELOCITY_MOTOR, TORQUE_MOTOR, POSITION_MOTOR, SERVO_MOTOR = range(5)
@@ -320,11 +322,11 @@ def _universal_limits(limits) -> tuple:
     return pairs
 
 
-def _motor(kind: str, motor) -> tuple[float, ...]:
-    """(code, target, cap, stiffness, damping, speed) of a motor given as World.add_joint's
-    ``motor`` (None: none)."""
+def _motor(kind: str, motor) -> tuple[tuple[float, ...], float]:
+    """((code, target, cap, stiffness, damping, speed), servo velocity) of a motor given as
+    World.add_joint's ``motor`` (None: none)."""
     if motor is None:
-        return NO_MOTOR, 0.0, 0.0, 0.0, 0.0, 0.0
+        return (NO_MOTOR, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0
     if not isinstance(motor, dict):
         raise ValueError(f"motor must be a dict such as {{'velocity': 1.0, 'max_force': 2.0}}, "
                          f"got {motor!r}")  # fmt: skip
@@ -335,21 +337,24 @@ def _motor(kind: str, motor) -> tuple[float, ...]:
     keys = set(motor)
     if keys == {"velocity", "max_force"}:
         return (VELOCITY_MOTOR, _finite(motor["velocity"], "motor velocity"),
-                _cap(motor, "max_force"), 0.0, 0.0, 0.0)  # fmt: skip
+                _cap(motor, "max_force"), 0.0, 0.0, 0.0), 0.0  # fmt: skip
     if keys == {"torque"}:
-        return TORQUE_MOTOR, _finite(motor["torque"], "motor torque"), 0.0, 0.0, 0.0, 0.0
+        return (TORQUE_MOTOR, _finite(motor["torque"], "motor torque"), 0.0, 0.0, 0.0, 0.0), 0.0
     if {"position", "stiffness", "damping"} <= keys <= {"position", "stiffness", "damping",
                                                         "max_force"}:  # fmt: skip
         return (POSITION_MOTOR, _target(kind, motor["position"], "position"),
                 _cap(motor, "max_force"), _cap(motor, "stiffness"), _cap(motor, "damping"),
-                0.0)  # fmt: skip
-    if {"servo"} <= keys <= {"servo", "max_force", "max_velocity"}:
-        return (SERVO_MOTOR, _target(kind, motor["servo"], "servo"), _cap(motor, "max_force"),
-                0.0, 0.0, _cap(motor, "max_velocity"))  # fmt: skip
+                0.0), 0.0  # fmt: skip
+    if {"servo"} <= keys <= {"servo", "velocity", "max_force", "max_velocity"}:
+        return (
+            (SERVO_MOTOR, _target(kind, motor["servo"], "servo"), _cap(motor, "max_force"),
+             0.0, 0.0, _cap(motor, "max_velocity")),
+            _finite(motor.get("velocity", 0.0), "servo velocity"),
+        )  # fmt: skip
     raise ValueError(
         f"motor {motor!r}: give {{'velocity': v, 'max_force': f}}, {{'torque': t}}, "
         "{'position': q, 'stiffness': k, 'damping': c[, 'max_force': f]} or "
-        "{'servo': q[, 'max_force': f, 'max_velocity': w]}"
+        "{'servo': q[, 'velocity': v, 'max_force': f, 'max_velocity': w]}"
     )
 
 
@@ -518,7 +523,7 @@ class JointSet:
         row[LOWER], row[UPPER], row[CONE] = _limits(kind, options.get("limits"))
         row[AXIS_LOWER : AXIS_LOWER + 6] = axis_lower
         row[AXIS_UPPER : AXIS_UPPER + 6] = axis_upper
-        row[MOTOR : MOTOR + 6] = _motor(kind, options.get("motor"))
+        row[MOTOR : MOTOR + 6], row[SERVO_VELOCITY] = _motor(kind, options.get("motor"))
         row[SPRING_STIFFNESS : FRICTION + 1] = _forces(kind, options, length)
         if name is not None and (not isinstance(name, str) or not name or "\0" in name):
             raise ValueError(f"joint name must be a non-empty string, got {name!r}")
@@ -537,7 +542,9 @@ class JointSet:
         if not 0 <= index < len(self):
             raise ValueError(f"no joint {index}; the world has {len(self)} joints")
         kind = KIND_NAMES[self.ints[index, KIND]]
-        self.floats[index, MOTOR : MOTOR + 6] = _motor(kind, motor)
+        self.floats[index, MOTOR : MOTOR + 6], self.floats[index, SERVO_VELOCITY] = _motor(
+            kind, motor
+        )
 
     @staticmethod
     def _body(body, field, bodies, allow_world) -> int:

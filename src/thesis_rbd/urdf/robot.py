@@ -181,15 +181,24 @@ class Robot:
         for body, pose in placed:
             self.world.set_body_state(body, *pose)
 
-    def set_joint_targets(self, positions) -> None:
+    def set_joint_targets(self, positions, velocities=None) -> None:
         """Hold every movable joint at a target position (rad or m) with a servo motor,
         capped by the joint's URDF effort (N m or N) and velocity (rad/s or m/s) limits:
-        pybullet's POSITION_CONTROL, as a constraint rather than a gain."""
+        pybullet's POSITION_CONTROL, as a constraint rather than a gain. ``velocities``
+        (rad/s or m/s, for the same joints, given as ``positions`` is; None: at rest) are the
+        rates the targets move at: a trajectory's targets are then met where they will be,
+        not a step late."""
         indices, positions = self._followed(*self._per_joint(positions, "positions"))
+        rates = np.zeros(len(indices))
+        if velocities is not None:
+            given, values = self._followed(*self._per_joint(velocities, "velocities"), offset=False)
+            if sorted(given) != sorted(indices):
+                raise ValueError("velocities must name the same joints as positions")
+            rates = np.array([dict(zip(given, values, strict=True))[i] for i in indices])
         self._check_drivable(indices)
-        for i, q in zip(indices, positions, strict=True):
+        for i, q, v in zip(indices, positions, rates, strict=True):
             self.world.set_motor(
-                self.joints[i], servo=float(q - self._offsets[i]),
+                self.joints[i], servo=float(q - self._offsets[i]), velocity=float(v),
                 max_force=float(self.effort_limits[i]),
                 max_velocity=float(self.velocity_limits[i]),
             )  # fmt: skip

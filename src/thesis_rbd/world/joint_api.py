@@ -72,9 +72,10 @@ class WorldJoints:
             its rate towards v (rad/s or m/s) with at most f (N m or N); ``{"torque": t}``
             pushes with t (N m or N) about / along +axis; ``{"position": q, "stiffness": k,
             "damping": c, "max_force": f}`` pulls towards q through a spring (N m/rad or
-            N/m) and damper (N m s/rad or N s/m); ``{"servo": q, "max_force": f,
-            "max_velocity": w}`` holds q as a constraint within f and w. Caps left out are
-            unlimited.
+            N/m) and damper (N m s/rad or N s/m); ``{"servo": q, "velocity": v,
+            "max_force": f, "max_velocity": w}`` holds q as a constraint within f and w, q
+            moving at v (rad/s or m/s; 0 where left out: the servo then reaches q where it
+            is, a trajectory's target a step late). Caps left out are unlimited.
         spring : dict, optional
             A distance joint's spring, ``{"stiffness": k, "damping": c, "rest_length": L}``
             (N/m, N s/m, m; damping 0 and the anchors' distance now where left out): a force
