@@ -335,6 +335,37 @@ def test_target_velocities_let_the_iiwa_track_a_trajectory():
         robot.set_joint_targets({"lbr_iiwa_joint_1": 0.1}, {"lbr_iiwa_joint_2": 0.0})
 
 
+def test_links_are_drawn_with_their_visual_meshes(tmp_path):
+    """Each iiwa link (fixed links merged: none here) is drawn with its <visual> mesh file
+    read whole by trimesh (not the collision hull), placed by its origin in the body's frame;
+    a visual file that cannot be read leaves its link drawn by its collision shape, with a
+    warning naming it."""
+    trimesh = pytest.importorskip("trimesh")
+    path = _data("kuka_iiwa/model.urdf")
+    world = rbd.World()
+    robot = rbd.load_urdf(world, path, fixed_base=True, merge_fixed_links=False)
+    for link in ET.parse(path).getroot().iter("link"):
+        visual = link.find("visual")
+        body = robot.bodies[link.get("name")]
+        expected = trimesh.load(path.parent / visual.find("geometry/mesh").get("filename"),
+                                force="mesh")  # fmt: skip
+        origin = visual.find("origin")
+        R = _rpy_matrix(np.fromstring(origin.get("rpy"), sep=" "))
+        placed = expected.vertices @ R.T + np.fromstring(origin.get("xyz"), sep=" ")
+        drawn = world.bodies.drawn[body]
+        assert drawn is not world.bodies.meshes[body]
+        # triangle by triangle (the mesh drops the files' unused vertices)
+        np.testing.assert_allclose(drawn.vertices[drawn.faces], placed[expected.faces], atol=1e-12)
+    text = path.read_text().replace("meshes/link_3.obj", "meshes/no_such_file.obj", 1)
+    broken = tmp_path / "model.urdf"
+    broken.write_text(text.replace('filename="meshes/', f'filename="{path.parent}/meshes/'))
+    world = rbd.World()
+    with pytest.warns(UserWarning, match="no_such_file.obj"):
+        robot = rbd.load_urdf(world, broken, fixed_base=True)
+    link = robot.bodies["lbr_iiwa_link_3"]
+    assert world.bodies.drawn[link] is world.bodies.meshes[link]
+
+
 def test_iiwa_joint_damping_against_pybullet_at_a_sixteenth_of_the_step():
     """The iiwa falls from a bent pose for 2 s with its URDF joint damping (0.5 N m s/rad),
     no control, at dt = 1/240. pybullet at dt / 16 is the reference (its links' damping

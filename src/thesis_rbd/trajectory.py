@@ -72,7 +72,8 @@ class Trajectory:
     names : sequence of str
         n body names.
     meshes : sequence of TriangleMesh
-        n meshes, each in its mesh frame.
+        n meshes, each in its mesh frame: what each body is drawn with (its collision mesh,
+        or the visual it was given).
     centers_of_mass : (n, 3) array_like of float
         Mesh-frame point that ``positions`` tracks, per body.
     static : (n,) array_like of bool, optional
@@ -622,7 +623,7 @@ def simulate(
         positions,
         orientations,
         world.names,
-        list(bodies.meshes),
+        list(bodies.drawn),
         bodies.center_of_mass_local.copy(),
         bodies.static.copy(),
         metadata={

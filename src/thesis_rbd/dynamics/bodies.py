@@ -123,6 +123,8 @@ class BodyArrays:
             for name, (shape, dtype) in self._FIELDS.items()
         }
         self.meshes: list = []
+        # the mesh each body is drawn with (its collision mesh unless it was given a visual)
+        self.drawn: list = []
         self.names: list[str] = []
         self._saved = (np.empty((0, 3)),)
 
@@ -166,8 +168,9 @@ class BodyArrays:
             new[: self.count] = old[: self.count]
             self._storage[name] = new
 
-    def append(self, mesh, name: str, **values) -> int:
-        """Append one body; ``values`` gives every field of ``_FIELDS``. Returns its index."""
+    def append(self, mesh, name: str, drawn=None, **values) -> int:
+        """Append one body; ``values`` gives every field of ``_FIELDS``, ``drawn`` the mesh
+        it is drawn with (None: ``mesh``). Returns its index."""
         missing = set(self._FIELDS) - set(values)
         if missing:
             raise ValueError(f"missing body fields: {sorted(missing)}")
@@ -178,5 +181,6 @@ class BodyArrays:
             self._storage[field][index] = value
         self.count += 1
         self.meshes.append(mesh)
+        self.drawn.append(mesh if drawn is None else drawn)
         self.names.append(name)
         return index

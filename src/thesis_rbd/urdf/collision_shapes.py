@@ -1,4 +1,4 @@
-"""A URDF link's collision geometry as triangle meshes in the link frame."""
+"""A URDF link's collision and visual geometry as triangle meshes in the link frame."""
 
 from __future__ import annotations
 
@@ -8,7 +8,13 @@ import numpy as np
 
 from thesis_rbd.geometry import TriangleMesh, shapes
 
-__all__ = ["CYLINDER_SECTIONS", "SPHERE_SUBDIVISIONS", "collision_meshes", "mesh_path"]
+__all__ = [
+    "CYLINDER_SECTIONS",
+    "SPHERE_SUBDIVISIONS",
+    "collision_meshes",
+    "mesh_path",
+    "visual_meshes",
+]
 
 # Tessellation of URDF's curved primitives: a 320-face icosphere (its volume 2.4 % under the
 # sphere's) and a 32-sided cylinder (0.6 % under), both inscribed in the true surface.
@@ -39,15 +45,15 @@ def mesh_path(filename: str, urdf_dir: Path) -> Path:
     return Path(filename_handler_magic(filename, dir=str(urdf_dir)))
 
 
-def _mesh(geometry, urdf_dir: Path, convex: bool, link: str) -> TriangleMesh:
+def _mesh(geometry, urdf_dir: Path, convex: bool, link: str, role: str = "collision"):
     import trimesh
 
     path = mesh_path(geometry.filename, urdf_dir)
     if not path.is_file():
         raise ValueError(
-            f"link {link!r}: collision mesh {geometry.filename!r} not found (looked for {path})"
+            f"link {link!r}: {role} mesh {geometry.filename!r} not found (looked for {path})"
         )
-    where = f"link {link!r}: collision mesh {geometry.filename!r}"
+    where = f"link {link!r}: {role} mesh {geometry.filename!r}"
     loaded = trimesh.load(path, force="mesh")
     if len(loaded.vertices) == 0 or not np.all(np.isfinite(loaded.vertices)):
         raise ValueError(f"{where} has no vertices, or vertices that are not finite numbers")
@@ -86,21 +92,39 @@ def collision_meshes(link, urdf_dir: Path, convex: bool) -> list[tuple[TriangleM
     ValueError
         Naming the link, for a missing mesh file or an element without geometry.
     """
-    placed = []
-    for element in link.collisions:
-        g = element.geometry
-        if g.box is not None:
-            mesh = shapes.box(g.box.size)
-        elif g.sphere is not None:
-            mesh = shapes.icosphere(g.sphere.radius, SPHERE_SUBDIVISIONS)
-        elif g.cylinder is not None:
-            mesh = shapes.cylinder(g.cylinder.radius, g.cylinder.length, CYLINDER_SECTIONS)
-        elif g.mesh is not None:
-            mesh = _mesh(g.mesh, urdf_dir, convex, link.name)
-        else:
-            raise ValueError(
-                f"link {link.name!r}: a collision element without a box, sphere, cylinder or "
-                "mesh (Bullet's capsule and plane extensions are not read yet)"
-            )
+    return [
+        (_geometry(element.geometry, urdf_dir, convex, link.name, "collision"), _origin(element))
+        for element in link.collisions
+    ]
+
+
+def visual_meshes(link, urdf_dir: Path) -> tuple[list[tuple[TriangleMesh, np.ndarray]], list]:
+    """Each ``<visual>`` element of a yourdfpy link as (mesh, pose) in the link frame, as
+    ``collision_meshes`` reads them (meshes whole, not their hulls), and the reasons of those
+    that could not be read (a missing file, a format trimesh cannot load): a link is still
+    drawn, by its collision shape, where its visuals fail, as pybullet draws it."""
+    placed, failed = [], []
+    for element in link.visuals:
+        try:
+            mesh = _geometry(element.geometry, urdf_dir, False, link.name, "visual")
+        except Exception as exc:  # trimesh raises many kinds for a file it cannot read
+            failed.append(str(exc))
+            continue
         placed.append((mesh, _origin(element)))
-    return placed
+    return placed, failed
+
+
+def _geometry(g, urdf_dir: Path, convex: bool, link: str, role: str) -> TriangleMesh:
+    """One element's geometry as a mesh in its own frame (see ``collision_meshes``)."""
+    if g.box is not None:
+        return shapes.box(g.box.size)
+    if g.sphere is not None:
+        return shapes.icosphere(g.sphere.radius, SPHERE_SUBDIVISIONS)
+    if g.cylinder is not None:
+        return shapes.cylinder(g.cylinder.radius, g.cylinder.length, CYLINDER_SECTIONS)
+    if g.mesh is not None:
+        return _mesh(g.mesh, urdf_dir, convex, link, role)
+    raise ValueError(
+        f"link {link!r}: a {role} element without a box, sphere, cylinder or mesh (Bullet's "
+        "capsule and plane extensions are not read yet)"
+    )

@@ -8,6 +8,7 @@ then is anything added to the world: a bad file leaves the world as it was.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.spatial.transform import transform_from_pose
-from thesis_rbd.urdf.collision_shapes import collision_meshes
+from thesis_rbd.urdf.collision_shapes import collision_meshes, visual_meshes
 from thesis_rbd.urdf.link_mass import combine, link_mass
 from thesis_rbd.urdf.plan import (
     ModelPlan,
@@ -134,10 +135,17 @@ def load_urdf(
         )  # fmt: skip
     except Exception as exc:  # yourdfpy and lxml raise many kinds for a malformed file
         raise ValueError(f"{path}: not a URDF file yourdfpy can read: {exc}") from exc
+    failed = []
     try:
-        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia)
+        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia, failed)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
+    if failed:
+        warnings.warn(
+            f"{path}: {len(failed)} visual elements not read, their links drawn by their "
+            f"collision shapes: {'; '.join(failed)}",
+            stacklevel=2,
+        )
     return build(world, plan, self_collision, model.robot.name)
 
 
@@ -201,9 +209,11 @@ def _mimics(robot) -> dict[str, tuple[str, float, float]]:
 
 
 def _plan(
-    robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool, inertia: str
-) -> ModelPlan:
-    """The bodies and joints a URDF model becomes, checked (see ``load_urdf``)."""
+    robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool, inertia: str,
+    failed: list,
+) -> ModelPlan:  # fmt: skip
+    """The bodies and joints a URDF model becomes, checked (see ``load_urdf``); the visual
+    elements that could not be read are added to ``failed``."""
     for joint in robot.joints:
         if joint.type not in (*_MOVABLE, "fixed", "floating"):
             raise ValueError(f"joint {joint.name!r}: unknown joint type {joint.type!r}")
@@ -233,7 +243,7 @@ def _plan(
 
     bodies, sizes = zip(
         *(
-            _body_arguments(group, links, urdf_dir, g == 0, inertia == "file")
+            _body_arguments(group, links, urdf_dir, g == 0, inertia == "file", failed)
             for g, group in enumerate(groups)
         ),
         strict=True,
@@ -263,19 +273,26 @@ def _plan(
 
 
 def _body_arguments(
-    group: _Body, links: dict, urdf_dir: Path, is_root: bool, inertia_from_file: bool
-) -> tuple[dict, float]:
+    group: _Body, links: dict, urdf_dir: Path, is_root: bool, inertia_from_file: bool,
+    failed: list,
+) -> tuple[dict, float]:  # fmt: skip
     """``add_body`` keywords of one group of welded links and its bounding radius
     (``plan.body_arguments``); its collision shapes are its links' ``<collision>``
-    elements."""
-    placed = []
+    elements, what it is drawn with their ``<visual>`` ones (where any can be read)."""
+    placed, drawn = [], []
     for name, (_, T) in zip(group.links, group.parts, strict=True):
         placed += [
             (mesh, T @ pose)
             for mesh, pose in collision_meshes(links[name], urdf_dir, not group.static)
         ]
-    return body_arguments(group.root, group.pose, placed, combine(group.parts), group.static,
-                          inertia_from_file, is_root)  # fmt: skip
+        visuals, unread = visual_meshes(links[name], urdf_dir)
+        drawn += [(mesh, T @ pose) for mesh, pose in visuals]
+        failed += unread
+    kwargs, size = body_arguments(group.root, group.pose, placed, combine(group.parts),
+                                  group.static, inertia_from_file, is_root)  # fmt: skip
+    if drawn:
+        kwargs["visual"] = drawn
+    return kwargs, size
 
 
 def _joint(joint, child: int, parent: int, frame: np.ndarray) -> PlannedJoint:

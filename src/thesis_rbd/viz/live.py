@@ -227,7 +227,7 @@ class LiveView:
         world, bodies = self.world, self.world.bodies
         joints = world.joint_frames
         lower, upper = scene_bounds(
-            bodies.meshes,
+            bodies.drawn,
             bodies.center_of_mass_local,
             np.asarray(world.positions)[None],
             np.asarray(world.orientations)[None],
@@ -237,7 +237,7 @@ class LiveView:
         self.nodes = BodyNodes(
             self.server.scene,
             world.names,
-            bodies.meshes,
+            bodies.drawn,
             bodies.center_of_mass_local,
             bodies.static,
             size,

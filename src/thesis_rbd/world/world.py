@@ -267,6 +267,7 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         center_of_mass=None,
         inertia=None,
         shapes=None,
+        visual=None,
     ) -> int:
         """Add a body and return its index.
 
@@ -322,15 +323,20 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
             closed, and the body is their union (overlaps counted twice) at the density or
             scaled to the mass. A compound of several parts collides through the OBBTree of
             the parts merged into one mesh, never as one convex hull.
+        visual : sequence of (TriangleMesh, (4, 4) array_like), optional
+            What the viewer and the playback pages draw instead of the collision shape
+            (a URDF link's ``<visual>``): meshes placed in the body's mesh frame as
+            ``shapes`` are, open or closed; no part of the physics.
         """
         mesh, parts = body_shape(mesh, shapes)
+        drawn = None if visual is None else body_shape(None, visual)[0]
         fields = body_fields(
             mesh, mass, density, position, orientation, linear_velocity, angular_velocity,
             restitution, friction, static, collidable, collision_group, collision_mask, kinematic,
             parts, center_of_mass, inertia,
         )  # fmt: skip
         index = self.bodies.append(
-            mesh, name if name is not None else f"body{self.bodies.count}", **fields
+            mesh, name if name is not None else f"body{self.bodies.count}", drawn, **fields
         )
         self._collision.add_body(mesh, fields["center_of_mass_local"], convex=len(parts) == 1)
         self._sleep.resize(self.bodies.count)
