@@ -20,7 +20,8 @@ How MJCF maps onto the world's bodies and joints:
   slide's stiffness an uncapped position motor towards its spring reference;
 * geoms: spheres, capsules, cylinders, boxes, ellipsoids and meshes (a moving body's as
   their convex hull); a plane, in the world only, a static box under it; geoms with
-  ``contype`` and ``conaffinity`` both 0 do not collide;
+  ``contype`` and ``conaffinity`` both 0 do not collide, and are drawn (``add_body``'s
+  ``visual``) with the others;
 * bodies collide with each other as MuJoCo's do (``self_collision``): all pairs but a parent
   and its child, the ``<contact><exclude>`` pairs and those whose geoms' ``contype`` and
   ``conaffinity`` never meet.
@@ -171,13 +172,17 @@ def _plan(mujoco, model, base: np.ndarray) -> tuple[ModelPlan, list[str]]:
     groups, group_of = _groups(model, body_pose)
     bodies, sizes = [], []
     for group in groups:
-        placed = []
+        placed, drawn = [], []
         for b in group.members:
-            placed += _shapes(mujoco, model, data, b, group, names, pose)
+            colliding, only_drawn = _shapes(mujoco, model, data, b, group, names, pose)
+            placed += colliding
+            drawn += only_drawn
         inverse = np.linalg.inv(group.pose)
         total = combine([(_body_mass(model, b), inverse @ body_pose[b]) for b in group.members])
         kwargs, size = body_arguments(names.body(group.root), group.pose, placed, total,
                                       group.static, True, group.root == 1)  # fmt: skip
+        if drawn:  # drawn as MuJoCo draws it: every geom
+            kwargs["visual"] = [*placed, *drawn]
         bodies.append(kwargs)
         sizes.append(size)
     joints, movable, pairs, unmodelled = [], [], [], []
@@ -285,40 +290,51 @@ def _body_mass(model, b: int) -> LinkMass:
     return LinkMass(float(model.body_mass[b]), model.body_ipos[b].copy(), inertia)
 
 
-def _shapes(mujoco, model, data, b: int, group: _Group, names, pose) -> list:
-    """The collision shapes of body b's geoms, each at its pose in the group's frame."""
-    kinds = mujoco.mjtGeom
+def _shapes(mujoco, model, data, b: int, group: _Group, names, pose) -> tuple[list, list]:
+    """Body b's geoms as (mesh, pose in the group's frame): those that collide, and those
+    only drawn (``contype`` and ``conaffinity`` both 0; one of a kind the world cannot
+    draw is left out)."""
     inverse = np.linalg.inv(group.pose)
-    placed = []
+    placed, drawn = [], []
     for g in np.flatnonzero(model.geom_bodyid == b):
-        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
-            continue  # visual only
-        kind, size = model.geom_type[g], model.geom_size[g]
-        where = f"geom {names.geom(g)!r} of body {names.body(b)!r}"
         at = inverse @ pose(data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3))
-        if kind == kinds.mjGEOM_PLANE:
-            if not group.static:
-                raise ValueError(f"{where}: a plane belongs to the world or a static body")
-            mesh, offset = _floor(size)
-            placed.append((mesh, at @ offset))
+        where = f"geom {names.geom(g)!r} of body {names.body(b)!r}"
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            try:
+                mesh, offset = _geom_mesh(mujoco, model, g, group.static, False, where)
+            except ValueError:
+                continue
+            drawn.append((mesh, at @ offset))
             continue
-        if kind == kinds.mjGEOM_SPHERE:
-            mesh = shapes.icosphere(size[0], SPHERE_SUBDIVISIONS)
-        elif kind == kinds.mjGEOM_CAPSULE:
-            mesh = shapes.capsule(size[0], 2.0 * size[1], CAPSULE_SECTIONS)
-        elif kind == kinds.mjGEOM_CYLINDER:
-            mesh = shapes.cylinder(size[0], 2.0 * size[1], CYLINDER_SECTIONS)
-        elif kind == kinds.mjGEOM_BOX:
-            mesh = shapes.box(2.0 * size)
-        elif kind == kinds.mjGEOM_ELLIPSOID:
-            sphere = shapes.icosphere(1.0, SPHERE_SUBDIVISIONS)
-            mesh = TriangleMesh(sphere.vertices * size, sphere.faces)
-        elif kind == kinds.mjGEOM_MESH:
-            mesh = _mesh(model, int(model.geom_dataid[g]), not group.static)
-        else:
-            raise ValueError(f"{where}: geoms of type {kinds(kind).name} are not read")
-        placed.append((mesh, at))
-    return placed
+        mesh, offset = _geom_mesh(mujoco, model, g, group.static, not group.static, where)
+        placed.append((mesh, at @ offset))
+    return placed, drawn
+
+
+def _geom_mesh(mujoco, model, g: int, static: bool, convex: bool, where: str):
+    """One geom's mesh and its offset from the geom's frame (a plane's box lies under it)."""
+    kinds = mujoco.mjtGeom
+    kind, size = model.geom_type[g], model.geom_size[g]
+    if kind == kinds.mjGEOM_PLANE:
+        if not static:
+            raise ValueError(f"{where}: a plane belongs to the world or a static body")
+        return _floor(size)
+    if kind == kinds.mjGEOM_SPHERE:
+        mesh = shapes.icosphere(size[0], SPHERE_SUBDIVISIONS)
+    elif kind == kinds.mjGEOM_CAPSULE:
+        mesh = shapes.capsule(size[0], 2.0 * size[1], CAPSULE_SECTIONS)
+    elif kind == kinds.mjGEOM_CYLINDER:
+        mesh = shapes.cylinder(size[0], 2.0 * size[1], CYLINDER_SECTIONS)
+    elif kind == kinds.mjGEOM_BOX:
+        mesh = shapes.box(2.0 * size)
+    elif kind == kinds.mjGEOM_ELLIPSOID:
+        sphere = shapes.icosphere(1.0, SPHERE_SUBDIVISIONS)
+        mesh = TriangleMesh(sphere.vertices * size, sphere.faces)
+    elif kind == kinds.mjGEOM_MESH:
+        mesh = _mesh(model, int(model.geom_dataid[g]), convex)
+    else:
+        raise ValueError(f"{where}: geoms of type {kinds(kind).name} are not read")
+    return mesh, np.eye(4)
 
 
 def _floor(size) -> tuple[TriangleMesh, np.ndarray]:
