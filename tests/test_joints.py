@@ -514,6 +514,41 @@ def test_tree_solve_matches_a_dense_solve(joints, seed):
     assert np.abs(K @ x - rhs).max() <= 1e-10 * np.abs(K).sum(axis=1).max() * np.abs(x).max()
 
 
+def test_islands_are_solved_alike_wherever_they_come_in_the_world():
+    """A swinging Y (a rod hinged to the world, two rods hinged to its end) moves bit for
+    bit alike alone and as the second island, after a five-link chain: each island's Newton
+    matrix is laid out from its own joints' neighbours (the second island's once read the
+    first's, a wrong layout, here a neighbour beyond the island, read out of bounds)."""
+    box = rbd.shapes.box((0.3, 0.05, 0.05))
+
+    def add_chain(world):
+        links = [world.add_body(box, position=(0.15 + 0.3 * k, 3.0, 0), collidable=False)
+                 for k in range(5)]  # fmt: skip
+        world.add_joint("revolute", links[0], None, anchor=(0, 3.0, 0), axis=(0, 1, 0))
+        for k in range(1, 5):
+            world.add_joint("revolute", links[k], links[k - 1], anchor=(0.3 * k, 3.0, 0),
+                            axis=(0, 1, 0))  # fmt: skip
+
+    def add_y(world):
+        root = world.add_body(box, position=(0.15, 0, 0), collidable=False)
+        world.add_joint("revolute", root, None, anchor=(0, 0, 0), axis=(0, 1, 0))
+        for side in (-1, 1):
+            arm = world.add_body(box, position=(0.45, 0.06 * side, 0), collidable=False)
+            world.add_joint("revolute", arm, root, anchor=(0.3, 0.06 * side, 0),
+                            axis=(0, 1, 0))  # fmt: skip
+
+    def y_after(builders) -> tuple:
+        world = rbd.World(dt=1 / 240, gravity=(0, 0, -G), joint_substeps=2)
+        for build in builders:
+            build(world)
+        world.step(120)
+        return world.positions[-3:], world.orientations[-3:]
+
+    alone, second = y_after([add_y]), y_after([add_chain, add_y])
+    np.testing.assert_array_equal(alone[0], second[0])
+    np.testing.assert_array_equal(alone[1], second[1])
+
+
 def test_a_closed_loop_is_held_with_its_redundant_rows():
     """A parallelogram four-bar (two cranks hinged to the world, a coupler hinged to both):
     its loop repeats constraints, which the dense solve drops, and the loop holds to 0.1 mm

@@ -51,7 +51,8 @@ def newton_scratch(joints, bodies, ints, floats, neighbour_start, neighbour, tre
         The island's moving bodies, increasing.
     ints, floats : ``JointSet`` arrays.
     neighbour_start, neighbour : (j + 1,), (p,) int64
-        The island's joints' later neighbours (``joint_tree.later_neighbours``).
+        The island's joints' later neighbours: its slice of ``joint_tree.later_neighbours``'s
+        starts, which index the whole ``neighbour`` of every island.
     tree : bool
         Whether the island is a tree.
     """
@@ -150,10 +151,8 @@ def _tree_layout(joints, ints, floats, neighbour_start, neighbour, tree):
         rows[e] = joint_row_count(ints[joints[e], KIND], floats[joints[e]])
         row_start[e + 1] = row_start[e] + rows[e]
         later = neighbour_start[e + 1] - neighbour_start[e]
-        for k in range(later):
-            slot_neighbour[self_slot[e] + 1 + k] = neighbour[
-                neighbour_start[e] - neighbour_start[0] + k
-            ]
+        for k in range(later):  # neighbour_start holds offsets into the whole neighbour
+            slot_neighbour[self_slot[e] + 1 + k] = neighbour[neighbour_start[e] + k]
         self_slot[e + 1] = self_slot[e] + 1 + later
     upper = np.zeros((slots, 6, 6))
     lower = np.zeros((slots, 6, 6))

@@ -15,7 +15,10 @@ How MJCF maps onto the world's bodies and joints:
   anchor; several hinges and slides on one body, the hinges at one point and every axis
   square to or along the others, are one "generic" joint whose frame holds the axes (its
   x the first joint's, its turns Cardan angles in the file's order, as MuJoCo composes
-  them); hinges at different points of one body, or slanted to each other, are refused;
+  them); hinges about several points of one body (the humanoid's ankles) are joined through
+  a light body between each point and the next, 1 % of the body's mass and inertia each,
+  taken from it (pybullet's MJCF import adds such links too); axes slanted to each other
+  about one point are refused;
 * joint damping and friction loss are the joints' ``damping`` and ``friction``, a hinge's or
   slide's stiffness an uncapped position motor towards its spring reference;
 * geoms: spheres, capsules, cylinders, boxes, ellipsoids and meshes (a moving body's as
@@ -27,7 +30,8 @@ How MJCF maps onto the world's bodies and joints:
   ``conaffinity`` never meet.
 
 Not modelled, and named in a warning: armature, joint damping and stiffness on a joint made
-generic, and actuators (apply torques through the ``Robot``). Refused: equality
+generic, and actuators (apply torques through the ``Robot``); the light bodies are named
+there too. Refused: equality
 constraints, tendons, height fields and the geoms MuJoCo cannot collide (``mjGEOM_SDF``).
 """
 
@@ -69,6 +73,8 @@ _INFINITE_PLANE = 200.0
 # within this of 0 or 1 are square or along each other
 _SAME_POINT = 1e-9
 _SQUARE = 1e-9
+# The share of a body's mass and inertia each light body between its joints' points takes
+_LIGHT_FRACTION = 0.01
 
 
 @dataclass
@@ -88,6 +94,7 @@ def load_mjcf(
     base_position=(0.0, 0.0, 0.0),
     base_orientation=(0.0, 0.0, 0.0, 1.0),
     self_collision: bool = True,
+    free_roots: bool = False,
 ) -> Robot:
     """Add an MJCF model's bodies and joints to a world, in its reference configuration.
 
@@ -104,6 +111,10 @@ def load_mjcf(
         Let the model's bodies collide with each other, but a parent and its child and the
         file's excluded pairs (MuJoCo's rule, the default); False: none of them do. The
         file's world geoms (a floor) collide with the model either way.
+    free_roots : bool
+        Leave free the bodies the file hangs from its world without a joint, as pybullet's
+        ``loadMJCF`` does (files written for pybullet, as its humanoid, give their root no
+        free joint), instead of welding them to the world, MuJoCo's rule (the default).
 
     Returns
     -------
@@ -145,7 +156,7 @@ def load_mjcf(
     except Exception as exc:  # the compiler raises ValueError and its own kinds
         raise ValueError(f"{path}: not an MJCF file MuJoCo's compiler accepts: {exc}") from exc
     try:
-        plan, unmodelled = _plan(mujoco, model, base)
+        plan, unmodelled = _plan(mujoco, model, base, free_roots)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
     if unmodelled:
@@ -153,7 +164,7 @@ def load_mjcf(
     return build(world, plan, self_collision, path.stem)
 
 
-def _plan(mujoco, model, base: np.ndarray) -> tuple[ModelPlan, list[str]]:
+def _plan(mujoco, model, base: np.ndarray, free_roots: bool) -> tuple[ModelPlan, list[str]]:
     """The bodies and joints of a compiled model, checked, and what is not modelled."""
     if model.neq:
         raise ValueError(f"{model.neq} equality constraints (<equality>) are not read")
@@ -169,7 +180,7 @@ def _plan(mujoco, model, base: np.ndarray) -> tuple[ModelPlan, list[str]]:
         return base @ T
 
     body_pose = [pose(data.xpos[b], data.xmat[b].reshape(3, 3)) for b in range(model.nbody)]
-    groups, group_of = _groups(model, body_pose)
+    groups, group_of = _groups(model, body_pose, free_roots)
     bodies, sizes = [], []
     for group in groups:
         placed, drawn = [], []
@@ -195,15 +206,24 @@ def _plan(mujoco, model, base: np.ndarray) -> tuple[ModelPlan, list[str]]:
         parent_group = group_of[parent] if parent > 0 else None
         if parent_group is not None:
             pairs.append((g, parent_group))
-        planned = _joint(mujoco, model, data, b, g, parent_group, base, names, unmodelled)
-        if planned is None:
-            continue
-        check_joint_reach(planned, bodies, sizes)
-        if planned.kind in ("revolute", "prismatic"):
-            j = model.body_jntadr[b]
-            offset = float(model.qpos0[model.jnt_qposadr[j]]) - planned.options.get("ref", 0.0)
-            movable.append((len(joints), planned.name, math.inf, math.inf, offset))
-        joints.append(planned)
+        runs = _runs(model, data, b)
+        # joints about several points of one body: a light body between each run and the
+        # next, as pybullet's MJCF import makes (its mass taken from the body's)
+        links = _light_bodies(g, runs, bodies, sizes, names.body(b), unmodelled)
+        holders = [parent_group, *links]
+        for k, found in enumerate(runs):
+            held = links[k] if k < len(links) else g
+            label = f"body {names.body(b)!r}"
+            planned = _joint(mujoco, model, data, found, label, held, holders[k], base, names,
+                             unmodelled)  # fmt: skip
+            if planned is None:
+                continue
+            check_joint_reach(planned, bodies, sizes)
+            if planned.kind in ("revolute", "prismatic"):
+                address = model.jnt_qposadr[found[0]]
+                offset = float(model.qpos0[address]) - planned.options.get("ref", 0.0)
+                movable.append((len(joints), planned.name, math.inf, math.inf, offset))
+            joints.append(planned)
     pairs += _kept_apart(model, groups)
     for k in range(model.nexclude):
         signature = int(model.exclude_signature[k])
@@ -240,11 +260,12 @@ class _Names:
         return self._name(self._mujoco.mjtObj.mjOBJ_GEOM, g)
 
 
-def _groups(model, body_pose) -> tuple[list[_Group], dict[int, int]]:
+def _groups(model, body_pose, free_roots: bool) -> tuple[list[_Group], dict[int, int]]:
     """The world bodies: the world's geoms (a static one, where it has any), and each MJCF
-    body with joints or welded to the world roots one (the latter static); a body without
-    joints below another joins its parent's. A body welded to the world is not the world's
-    body: its children do not collide with it, but with the world's floor they do."""
+    body with joints or hanging from the world roots one (without joints: static, or free
+    with ``free_roots``); a body without joints below another joins its parent's. A body
+    welded to the world is not the world's body: its children do not collide with it, but
+    with the world's floor they do."""
     groups, group_of = [], {}
     if np.any(model.geom_bodyid == 0):
         groups.append(_Group(0, body_pose[0], static=True))
@@ -255,7 +276,8 @@ def _groups(model, body_pose) -> tuple[list[_Group], dict[int, int]]:
             g = group_of[parent]
         else:
             g = len(groups)
-            groups.append(_Group(b, body_pose[b], static=model.body_jntnum[b] == 0))
+            welded = model.body_jntnum[b] == 0 and not free_roots
+            groups.append(_Group(b, body_pose[b], static=welded))
         group_of[b] = g
     for b, g in group_of.items():
         groups[g].members.append(b)
@@ -363,14 +385,60 @@ def _armature(model, j: int) -> float:
     return float(np.max(model.dof_armature[dof : dof + count]))
 
 
-def _joint(mujoco, model, data, b, child, parent, base, names, unmodelled):
-    """The world joint holding body b (group ``child``) to its parent group (None: the
-    world), or None for a free body."""
+def _light_bodies(g: int, runs, bodies, sizes, name: str, unmodelled) -> list[int]:
+    """One light body for each run of body ``g``'s joints but its last (``_runs``),
+    appended to ``bodies`` and ``sizes`` (their indices returned): a copy of the body's mass
+    properties at ``_LIGHT_FRACTION`` of them, taken from the body's own, colliding with
+    nothing, drawn as nothing."""
+    if len(runs) < 2:
+        return []
+    body = bodies[g]
+    share = _LIGHT_FRACTION * body["mass"]
+    links = []
+    for k in range(len(runs) - 1):
+        links.append(len(bodies))
+        marker = shapes.box((1e-3, 1e-3, 1e-3))
+        bodies.append({
+            "name": f"{name}:{k}", "collidable": False, "mass": share,
+            "center_of_mass": body["center_of_mass"],
+            "inertia": _LIGHT_FRACTION * np.asarray(body["inertia"]),
+            "shapes": [(marker, transform_from_pose(body["center_of_mass"], (0, 0, 0, 1)))],
+            "position": body["position"], "orientation": body["orientation"],
+        })  # fmt: skip
+        sizes.append(sizes[g])
+    kept = 1.0 - _LIGHT_FRACTION * len(links)
+    body["mass"] *= kept
+    body["inertia"] = kept * np.asarray(body["inertia"])
+    unmodelled.append(
+        f"body {name!r}'s joints turn about {len(runs)} points: joined through "
+        f"{len(links)} light bodies of {_LIGHT_FRACTION:.0%} of its mass each"
+    )
+    return links
+
+
+def _runs(model, data, b: int) -> list[list[int]]:
+    """Body b's joints in runs about one point each: a hinge about another point than the
+    run's hinges so far starts a new run (MuJoCo composes a body's joints in order)."""
+    runs, point = [[]], None
+    for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b]):
+        if model.jnt_type[j] == 3:  # mjJNT_HINGE
+            anchor = data.xanchor[j]
+            scale = max(1.0, float(np.max(np.abs(anchor))))
+            if point is not None and np.linalg.norm(anchor - point) > _SAME_POINT * scale:
+                runs.append([])
+            point = anchor.copy()
+        runs[-1].append(j)
+    return runs
+
+
+def _joint(mujoco, model, data, found, label, child, parent, base, names, unmodelled):
+    """The world joint of MJCF joints ``found`` (about one point) holding group ``child``
+    to ``parent`` (None: the world), or None for a free body."""
     kinds = mujoco.mjtJoint
-    first, count = model.body_jntadr[b], model.body_jntnum[b]
-    found = list(range(first, first + count))
+    count = len(found)
+    if count == 0:
+        return None  # a free root
     types = [int(model.jnt_type[j]) for j in found]
-    label = f"body {names.body(b)!r}"
     if kinds.mjJNT_FREE in types:
         if count > 1:
             raise ValueError(f"{label}: a free joint with other joints")
@@ -420,15 +488,6 @@ def _generic(model, kinds, found, types, anchor, axis, child, parent, names, lab
     if any(kind not in (kinds.mjJNT_HINGE, kinds.mjJNT_SLIDE) for kind in types):
         raise ValueError(f"{label}: joints {joint_names}: a ball joint with other joints")
     hinges = [k for k, kind in enumerate(types) if kind == kinds.mjJNT_HINGE]
-    scale = max(1.0, float(np.max(np.abs(anchor))))
-    if hinges and any(
-        np.linalg.norm(anchor[k] - anchor[hinges[0]]) > _SAME_POINT * scale for k in hinges
-    ):
-        points = {joint_names[k]: np.round(anchor[k], 6).tolist() for k in hinges}
-        raise ValueError(
-            f"{label}: its hinges {list(points)} turn about different points "
-            f"{list(points.values())}; one world joint holds several hinges about one point only"
-        )
     directions = [a / np.linalg.norm(a) for a in axis]
     order = hinges + [k for k in range(len(found)) if k not in hinges]
     frame = [directions[order[0]]]
