@@ -7,8 +7,10 @@ then is anything added to the world: a bad file leaves the world as it was.
 
 from __future__ import annotations
 
+import io
 import math
 import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -16,7 +18,7 @@ import numpy as np
 
 from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.spatial.transform import transform_from_pose
-from thesis_rbd.urdf.collision_shapes import collision_meshes, visual_meshes
+from thesis_rbd.urdf.collision_shapes import bullet_extensions, collision_meshes, visual_meshes
 from thesis_rbd.urdf.link_mass import combine, link_mass
 from thesis_rbd.urdf.plan import (
     ModelPlan,
@@ -129,15 +131,17 @@ def load_urdf(
     if inertia not in ("file", "shapes"):
         raise ValueError(f"inertia must be 'file' or 'shapes', got {inertia!r}")
     try:
+        source, extensions = _with_bullet_extensions(path)
         model = yourdfpy.URDF.load(
-            str(path), build_scene_graph=False, load_meshes=False,
+            source, build_scene_graph=False, load_meshes=False,
             build_collision_scene_graph=False, load_collision_meshes=False,
         )  # fmt: skip
     except Exception as exc:  # yourdfpy and lxml raise many kinds for a malformed file
         raise ValueError(f"{path}: not a URDF file yourdfpy can read: {exc}") from exc
     failed = []
     try:
-        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia, failed)
+        plan = _plan(model.robot, path.parent, base, fixed_base, merge_fixed_links, inertia,
+                     extensions, failed)  # fmt: skip
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
     if failed:
@@ -208,14 +212,26 @@ def _mimics(robot) -> dict[str, tuple[str, float, float]]:
     return found
 
 
+def _with_bullet_extensions(path: Path):
+    """What yourdfpy is given to read: the file's path, or where it has Bullet's
+    ``<capsule>`` or ``<plane>`` (which yourdfpy refuses), the file with those replaced
+    (``collision_shapes.bullet_extensions``); and the extensions found."""
+    text = path.read_bytes()
+    if b"<capsule" not in text and b"<plane" not in text:
+        return str(path), {}
+    root = ET.fromstring(text.rstrip(b"\0"))  # (pybullet_data's humanoid ends in a NUL)
+    extensions = bullet_extensions(root)
+    return io.BytesIO(ET.tostring(root)), extensions
+
+
 def _plan(
     robot, urdf_dir: Path, base: np.ndarray, fixed_base: bool, merge: bool, inertia: str,
-    failed: list,
+    extensions: dict, failed: list,
 ) -> ModelPlan:  # fmt: skip
     """The bodies and joints a URDF model becomes, checked (see ``load_urdf``); the visual
     elements that could not be read are added to ``failed``."""
     for joint in robot.joints:
-        if joint.type not in (*_MOVABLE, "fixed", "floating"):
+        if joint.type not in (*_MOVABLE, "fixed", "floating", "spherical"):
             raise ValueError(f"joint {joint.name!r}: unknown joint type {joint.type!r}")
     mimics = _mimics(robot)
     root, order = _tree_order(robot)
@@ -243,7 +259,7 @@ def _plan(
 
     bodies, sizes = zip(
         *(
-            _body_arguments(group, links, urdf_dir, g == 0, inertia == "file", failed)
+            _body_arguments(group, links, urdf_dir, g == 0, inertia == "file", extensions, failed)
             for g, group in enumerate(groups)
         ),
         strict=True,
@@ -274,7 +290,7 @@ def _plan(
 
 def _body_arguments(
     group: _Body, links: dict, urdf_dir: Path, is_root: bool, inertia_from_file: bool,
-    failed: list,
+    extensions: dict, failed: list,
 ) -> tuple[dict, float]:  # fmt: skip
     """``add_body`` keywords of one group of welded links and its bounding radius
     (``plan.body_arguments``); its collision shapes are its links' ``<collision>``
@@ -283,9 +299,9 @@ def _body_arguments(
     for name, (_, T) in zip(group.links, group.parts, strict=True):
         placed += [
             (mesh, T @ pose)
-            for mesh, pose in collision_meshes(links[name], urdf_dir, not group.static)
+            for mesh, pose in collision_meshes(links[name], urdf_dir, not group.static, extensions)
         ]
-        visuals, unread = visual_meshes(links[name], urdf_dir)
+        visuals, unread = visual_meshes(links[name], urdf_dir, extensions)
         drawn += [(mesh, T @ pose) for mesh, pose in visuals]
         failed += unread
     kwargs, size = body_arguments(group.root, group.pose, placed, combine(group.parts),
@@ -299,8 +315,8 @@ def _joint(joint, child: int, parent: int, frame: np.ndarray) -> PlannedJoint:
     """One URDF joint as a world joint, checked; ``frame`` (4, 4) is its child link's world
     pose now, where URDF places the joint frame."""
     anchor = frame[:3, 3].copy()
-    if joint.type == "fixed":
-        return PlannedJoint(joint.name, "fixed", child, parent, anchor, {})
+    if joint.type in ("fixed", "spherical"):  # Bullet's spherical joint: a ball, no limits
+        return PlannedJoint(joint.name, joint.type, child, parent, anchor, {})
     axis = np.asarray((1.0, 0.0, 0.0) if joint.axis is None else joint.axis, dtype=float)
     length = float(np.linalg.norm(axis))
     if not (math.isfinite(length) and length > 0.0):

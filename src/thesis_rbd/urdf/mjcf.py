@@ -47,7 +47,12 @@ import numpy as np
 from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.geometry import TriangleMesh, shapes
 from thesis_rbd.spatial.transform import transform_from_pose
-from thesis_rbd.urdf.collision_shapes import CYLINDER_SECTIONS, SPHERE_SUBDIVISIONS
+from thesis_rbd.urdf.collision_shapes import (
+    CAPSULE_SECTIONS,
+    CYLINDER_SECTIONS,
+    SPHERE_SUBDIVISIONS,
+    floor_box,
+)
 from thesis_rbd.urdf.link_mass import LinkMass, combine
 from thesis_rbd.urdf.plan import (
     ModelPlan,
@@ -59,16 +64,8 @@ from thesis_rbd.urdf.plan import (
 )
 from thesis_rbd.urdf.robot import Robot
 
-__all__ = ["CAPSULE_SECTIONS", "load_mjcf"]
+__all__ = ["load_mjcf"]
 
-# Tessellation of a capsule: 16 sections around and along each cap (512 faces, its volume
-# within 3 % under the true one, inscribed)
-CAPSULE_SECTIONS = 16
-# A plane's box: as deep as this fraction of its smaller side, at least _FLOOR_DEPTH (m); an
-# infinite plane (size 0) is _INFINITE_PLANE (m) across
-_FLOOR_FRACTION = 0.05
-_FLOOR_DEPTH = 0.1
-_INFINITE_PLANE = 200.0
 # Anchors closer than this fraction of the body's size are one point; axes whose cosine is
 # within this of 0 or 1 are square or along each other
 _SAME_POINT = 1e-9
@@ -340,7 +337,7 @@ def _geom_mesh(mujoco, model, g: int, static: bool, convex: bool, where: str):
     if kind == kinds.mjGEOM_PLANE:
         if not static:
             raise ValueError(f"{where}: a plane belongs to the world or a static body")
-        return _floor(size)
+        return floor_box(2.0 * size[:2])
     if kind == kinds.mjGEOM_SPHERE:
         mesh = shapes.icosphere(size[0], SPHERE_SUBDIVISIONS)
     elif kind == kinds.mjGEOM_CAPSULE:
@@ -357,15 +354,6 @@ def _geom_mesh(mujoco, model, g: int, static: bool, convex: bool, where: str):
     else:
         raise ValueError(f"{where}: geoms of type {kinds(kind).name} are not read")
     return mesh, np.eye(4)
-
-
-def _floor(size) -> tuple[TriangleMesh, np.ndarray]:
-    """A plane's static box and its pose in the plane's frame: its top face on the plane."""
-    across = [2.0 * s if s > 0.0 else _INFINITE_PLANE for s in size[:2]]
-    depth = max(_FLOOR_DEPTH, _FLOOR_FRACTION * min(across))
-    offset = np.eye(4)
-    offset[2, 3] = -0.5 * depth
-    return shapes.box((*across, depth)), offset
 
 
 def _mesh(model, mesh: int, convex: bool) -> TriangleMesh:
