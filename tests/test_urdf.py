@@ -563,7 +563,7 @@ GOOD = {
             {"arm_inertial": GOOD["arm_inertial"].replace('izz="1"', 'izz="3"')},
             "link 'arm': inertia violates the triangle inequality",
         ),
-        ({"arm_geometry": '<capsule radius="0.05" length="0.3"/>'}, "Unknown tag: capsule"),
+        ({"arm_geometry": '<plane normal="0 0 1"/>'}, "link 'arm': a plane belongs to a static"),
         ({"axis": "0 0 0"}, "joint 'elbow': axis"),
         ({"mimic": '<mimic joint="other"/>'}, "joint 'elbow' mimics 'other'"),
     ],
