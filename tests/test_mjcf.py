@@ -37,8 +37,8 @@ def _load(world, path):
 
 
 def _has_unmodelled(path) -> bool:
-    """Actuators, armature, or damping on a joint made generic (none without the others in
-    pybullet_data's files)."""
+    """Actuators or armature: in pybullet_data's files, every file with another thing not
+    modelled (damping on a joint made generic, light bodies) has actuators too."""
     model = mujoco.MjModel.from_xml_path(str(path))
     return bool(model.nu) or bool(np.any(model.dof_armature > 0))
 

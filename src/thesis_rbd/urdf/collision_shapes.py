@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from thesis_rbd.geometry import TriangleMesh, shapes
 
@@ -41,14 +42,8 @@ def floor_box(across=(0.0, 0.0), normal=(0.0, 0.0, 1.0)) -> tuple[TriangleMesh, 
     depth = max(_FLOOR_DEPTH, _FLOOR_FRACTION * min(sides))
     n = np.asarray(normal, dtype=float)
     n = n / np.linalg.norm(n)
-    # a rotation taking z to the normal (about z x n; the identity or a half turn if parallel)
-    axis = np.cross((0.0, 0.0, 1.0), n)
-    R = np.eye(3) if n[2] > 0 else np.diag([1.0, -1.0, -1.0])
-    if np.linalg.norm(axis) > 1e-12:
-        k = axis / np.linalg.norm(axis)
-        angle = np.arccos(np.clip(n[2], -1.0, 1.0))
-        K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-        R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    # the rotation taking the box's z to the normal
+    R = Rotation.align_vectors([n], [[0.0, 0.0, 1.0]])[0].as_matrix()
     pose = np.eye(4)
     pose[:3, :3] = R
     pose[:3, 3] = -0.5 * depth * n
