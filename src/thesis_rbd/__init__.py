@@ -23,6 +23,7 @@ from thesis_rbd.collision import (
 from thesis_rbd.collision.broad_phase.sap import SweepAndPrune
 from thesis_rbd.geometry import MassProperties, TriangleMesh, load_mesh, mass_properties, shapes
 from thesis_rbd.scene import Scene, SceneError, load_scene
+from thesis_rbd.studies import StudyError, StudyTable, study
 from thesis_rbd.trajectory import Trajectory, simulate
 from thesis_rbd.urdf import Robot, load_mjcf, load_urdf
 from thesis_rbd.world import NonFiniteStateError, World
@@ -39,6 +40,8 @@ __all__ = [
     "Robot",
     "Scene",
     "SceneError",
+    "StudyError",
+    "StudyTable",
     "SweepAndPrune",
     "Trajectory",
     "TriangleMesh",
@@ -58,6 +61,7 @@ __all__ = [
     "shapes",
     "simulate",
     "spatial",
+    "study",
 ]
 
 __version__ = "0.1.0"

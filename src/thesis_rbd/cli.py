@@ -44,11 +44,11 @@ from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd._numba.stage_ledger import StageLedger
 from thesis_rbd._run_status import RunStatus
 from thesis_rbd.dynamics.integrators import INTEGRATORS
-from thesis_rbd.scene import Scene, load_scene, urdf_scene
+from thesis_rbd.scene import Scene
 from thesis_rbd.trajectory import MEMORY_LIMIT, Trajectory, planned_steps, simulate
 from thesis_rbd.world.world import DEFAULT_DT
 
-__all__ = ["app", "resolve_scene"]
+__all__ = ["app"]
 
 app = typer.Typer(
     name="thesis-rbd",
@@ -71,22 +71,6 @@ WARMUP_SLOWEST = 10
 
 class InputError(Exception):
     """A fault in the user's input, reported as one line and exit status 1."""
-
-
-def resolve_scene(argument: str) -> Scene:
-    """Load ``argument`` as a scene file if it is one (a URDF file: that model alone, its
-    base held), else as a built-in scene's name."""
-    path = Path(argument)
-    if path.suffix.lower() == ".urdf":
-        return urdf_scene(path)
-    if path.is_file() or path.suffix == ".toml" or "/" in argument or "\\" in argument:
-        return load_scene(path)
-    if argument in builtin_scenes.names():
-        return builtin_scenes.get(argument)
-    raise InputError(
-        f"no scene file or built-in scene named {argument!r}; "
-        f"built-ins: {', '.join(builtin_scenes.names())}"
-    )
 
 
 def _fail(message: str) -> typer.Exit:
@@ -292,7 +276,7 @@ def run(
             )
         if not (math.isfinite(fps) and fps > 0):
             raise InputError(f"--fps must be a positive number, got {fps}")
-        loaded = resolve_scene(scene)
+        loaded = builtin_scenes.resolve(scene)
         overrides = {
             key: value
             for key, value in (("dt", dt), ("integrator", integrator))
@@ -391,7 +375,7 @@ def view(
         from thesis_rbd.viz.viser_scene import require_viser
 
         require_viser()
-        loaded = resolve_scene(scene)
+        loaded = builtin_scenes.resolve(scene)
     from thesis_rbd.viz.live import LiveView
 
     status = RunStatus(loaded.name)
@@ -506,6 +490,115 @@ def _kernels(count: int) -> str:
 
 def _compiled(records) -> str:
     return f"compiled {_kernels(len({record.name for record in records}))}"
+
+
+@app.command()
+def study(
+    scene: Annotated[
+        str, typer.Argument(help="Scene file (.toml), URDF file (.urdf) or built-in scene name.")
+    ],
+    vary: Annotated[
+        list[str],
+        typer.Option(
+            "--vary",
+            help="NAME=V1,V2,... : a world setting and its values (repeat for more settings; "
+            "every combination runs). Fractions such as 1/240 are read as numbers.",
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out", "-o", help="Folder for results.csv, study.html and the records (resumes)."
+        ),
+    ],
+    seconds: Annotated[
+        float | None,
+        typer.Option(
+            "--seconds", "-s", help="Simulated time of each run; the scene's own by default."
+        ),
+    ] = None,
+    seeds: Annotated[
+        int, typer.Option("--seeds", help="Runs per variant (seeds 1.. perturb the initial poses).")
+    ] = 1,
+    perturbation: Annotated[
+        float,
+        typer.Option(
+            "--perturbation",
+            help="Fraction of each body's size (and radians) the seeds move it by.",
+        ),
+    ] = 1e-6,
+    within: Annotated[
+        str | None,
+        typer.Option(
+            "--within",
+            help="Thresholds for the recommendation: position=1e-3,energy=1e-2 (scene units).",
+        ),
+    ] = None,
+    reference: Annotated[
+        str | None,
+        typer.Option(
+            "--reference",
+            help="Settings of the reference run over the default (a quarter of the finest dt, "
+            "contacts solved 100x tighter): integrator=rk4,dt=1/4000",
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers", "-j", help="Local worker processes; every core by default.", min=1
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="A Dask scheduler's address (tcp://HOST:PORT)."),
+    ] = None,
+    fresh: Annotated[
+        bool, typer.Option("--fresh", help="Forget the runs already recorded in --out.")
+    ] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help=_QUIET_HELP)] = False,
+) -> None:
+    """What accuracy costs in time on a scene: run every combination of some world settings
+    against a reference run, and write the table, the plot and a recommendation."""
+    from thesis_rbd.studies import StudyError
+    from thesis_rbd.studies import study as run_study
+    from thesis_rbd.studies.grid import parse_assignments, parse_vary
+
+    with _reported_errors():
+        try:
+            grid = dict(parse_vary(spec) for spec in vary)
+            if len(grid) != len(vary):
+                raise InputError("a setting is given in two --vary options")
+            status = RunStatus(Path(scene).stem, enabled=not quiet, unit="runs", after_seconds=0.0)
+            try:
+                table = run_study(
+                    builtin_scenes.resolve(scene),
+                    grid,
+                    seconds=seconds,
+                    reference=None
+                    if reference is None
+                    else parse_assignments(reference, "--reference"),
+                    seeds=seeds,
+                    scheduler=scheduler,
+                    workers=workers,
+                    perturbation=perturbation,
+                    out=out,
+                    fresh=fresh,
+                    within=None if within is None else parse_assignments(within, "--within"),
+                    progress=status,
+                )
+            finally:
+                status.close()
+        except StudyError as exc:
+            raise InputError(str(exc)) from None
+    if quiet:
+        return
+    failed = sum(row["status"] != "ok" for row in table)
+    typer.echo(
+        f"{len(table)} runs ({failed} failed) of {len(table.variants())} variants: "
+        f"{out / 'results.csv'}, {out / 'study.html'}"
+    )
+    if within is not None:
+        typer.echo(table.recommend(parse_assignments(within, "--within")).sentence)
 
 
 @app.command()

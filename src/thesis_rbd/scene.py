@@ -80,6 +80,7 @@ field and the value.
 
 from __future__ import annotations
 
+import copyreg
 import difflib
 import math
 import tomllib
@@ -109,6 +110,19 @@ __all__ = [
 ]
 
 DEFAULT_SECONDS = 5.0
+
+
+def _read_only(table: dict) -> MappingProxyType:
+    return MappingProxyType(table)
+
+
+def _reduce_mapping_proxy(mapping: MappingProxyType):
+    return _read_only, (dict(mapping),)
+
+
+# Scenes travel to worker processes (a study's runs): their read-only tables pickle as the
+# dicts they show, and are read-only again when unpickled.
+copyreg.pickle(MappingProxyType, _reduce_mapping_proxy)
 
 
 class SceneError(ValueError):
@@ -276,8 +290,8 @@ class Scene:
     world : Mapping
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
-        contact_solver, contact_iterations, friction_sides, penetration, sleeping,
-        narrow_phase, and joint_substeps.
+        contact_solver, contact_iterations, friction_sides, contact_tolerance, penetration,
+        sleeping, narrow_phase, and joint_substeps.
     bodies : tuple of BodySpec
         In world index order.
     joints : tuple of JointSpec
@@ -494,6 +508,7 @@ _WORLD_KEYS = (
     "contact_solver",
     "contact_iterations",
     "friction_sides",
+    "contact_tolerance",
     "penetration",
     "sleeping",
     "narrow_phase",
@@ -511,6 +526,7 @@ _CONTACT_CHECKS = {
     "contact_solver": lambda v, w: _as_string(v, w),
     "contact_iterations": lambda v, w: _integer(v, w),
     "friction_sides": lambda v, w: _integer(v, w),
+    "contact_tolerance": lambda v, w: _positive_number(v, w),
     "penetration": lambda v, w: _as_string(v, w),
     "sleeping": lambda v, w: _as_bool(v, w),
     "narrow_phase": lambda v, w: _as_string(v, w),

@@ -11,8 +11,8 @@ cube on a 40 m floor gets the cube's tolerances) and from the step:
 * penetration beyond the slop is removed through the velocities, ``BAUMGARTE`` of it per step
   (an impulse at the contact point, so momentum and angular momentum are untouched);
   a contact shallower than the slop may sink towards it at the same rate;
-* PGS sweeps stop once every contact's velocity is right to ``PGS_TOLERANCE`` x slop / dt,
-  or, if that is looser, to ``PGS_RELATIVE_TOLERANCE`` x the fastest contact-point speed of
+* PGS sweeps stop once every contact's velocity is right to ``tolerance`` x slop / dt,
+  or, if that is looser, to ``tolerance`` x the fastest contact-point speed of
   its island before the step's forces (so the g dt the forces add each step does not count).
   A resting island has no such speed and is held to the slop's tolerance, which keeps a stack
   from creeping; a tumbling heap is solved to a thousandth of its own motion instead of to a
@@ -46,12 +46,11 @@ SLOP_FRACTION = 1e-3
 BAUMGARTE = 0.2
 BOUNCE_SLOP_SPEED = 0.1
 EXACT_CONTACTS = 16
-# Sweeps stop once every contact's velocity is right to this fraction of its slop per step:
-# the position error it leaves is a thousandth of the slop per step.
+# Sweeps stop once every contact's velocity is right to this fraction of its slop per step
+# (the position error it leaves is a thousandth of the slop per step), or, if looser, to this
+# fraction of the fastest contact-point speed of its island before the step's forces (an
+# island in motion is solved to a thousandth of its motion).
 PGS_TOLERANCE = 1e-3
-# ... or, if looser, to this fraction of the fastest contact-point speed of its island before
-# the step's forces: an island in motion is solved to a thousandth of its motion.
-PGS_RELATIVE_TOLERANCE = 1e-3
 
 SOLVERS = ("auto", "pgs", "exact")
 PENETRATION = ("toi", "bias")
@@ -76,6 +75,10 @@ class ContactSettings:
         amplifies round-off (the stability suite's stack far from the origin).
     friction_sides : int
         Sides of the polygon approximating the friction cone (>= 3).
+    tolerance : float
+        PGS sweeps stop once every contact's velocity is right to this fraction of its
+        slop per step, or of its island's fastest contact-point speed (see the module
+        docstring); in (0, 1). A study's reference run tightens it.
     penetration : {"toi", "bias"}
         "toi": a body in free flight that ends its step inside another is stepped back to
         its time of impact, collides there and travels on (a bounce keeps its energy);
@@ -87,6 +90,7 @@ class ContactSettings:
     iterations: int = 300
     friction_sides: int = 8
     penetration: str = "toi"
+    tolerance: float = PGS_TOLERANCE
 
     def __post_init__(self):
         if self.solver not in SOLVERS:
@@ -99,6 +103,8 @@ class ContactSettings:
             raise ValueError(f"iterations must be an integer >= 1, got {self.iterations!r}")
         if int(self.friction_sides) != self.friction_sides or self.friction_sides < 3:
             raise ValueError(f"friction_sides must be an integer >= 3, got {self.friction_sides!r}")
+        if not (isinstance(self.tolerance, (int, float)) and 0 < self.tolerance < 1):
+            raise ValueError(f"contact_tolerance must be in (0, 1), got {self.tolerance!r}")
 
     def as_array(self, dt: float) -> np.ndarray:
         """The settings as the float64 array the contact kernels read (indices above)."""
@@ -107,9 +113,9 @@ class ContactSettings:
         values[SLOP] = SLOP_FRACTION
         values[BIAS_RATE] = BAUMGARTE
         values[BOUNCE_SPEED] = BOUNCE_SLOP_SPEED
-        values[TOLERANCE] = PGS_TOLERANCE
+        values[TOLERANCE] = self.tolerance
         values[ITERATIONS] = self.iterations
         values[SOLVER] = SOLVERS.index(self.solver)
         values[EXACT_LIMIT] = EXACT_CONTACTS
-        values[RELATIVE_TOLERANCE] = PGS_RELATIVE_TOLERANCE
+        values[RELATIVE_TOLERANCE] = self.tolerance
         return values

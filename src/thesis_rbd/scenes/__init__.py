@@ -14,9 +14,9 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from thesis_rbd.scene import Scene, SceneError, parse_scene
+from thesis_rbd.scene import Scene, SceneError, load_scene, parse_scene, urdf_scene
 
-__all__ = ["DEFAULT", "get", "names"]
+__all__ = ["DEFAULT", "get", "names", "resolve"]
 
 DEFAULT = "dzhanibekov"
 """The scene ``thesis-rbd run`` runs when given none."""
@@ -60,3 +60,24 @@ def get(name: str) -> Scene:
             source=f"built-in scene {name!r}",
             folder=Path(path).parent,
         )
+
+
+def resolve(argument: str) -> Scene:
+    """The scene a command line names: a scene file (.toml), a URDF file (that model alone,
+    its base held), or a built-in scene's name.
+
+    Raises
+    ------
+    SceneError
+        If ``argument`` is none of them, or the file it names is at fault.
+    """
+    path = Path(argument)
+    if path.suffix.lower() == ".urdf":
+        return urdf_scene(path)
+    if path.is_file() or path.suffix == ".toml" or "/" in argument or "\\" in argument:
+        return load_scene(path)
+    if argument in names():
+        return get(argument)
+    raise SceneError(
+        f"no scene file or built-in scene named {argument!r}; built-ins: {', '.join(names())}"
+    )

@@ -182,6 +182,9 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         a tall stack needs a few hundred when it starts unwarmed).
     friction_sides : int
         Sides of the polygonal friction cone.
+    contact_tolerance : float
+        PGS sweeps stop once every contact's velocity is right to this fraction of its slop
+        per step, or of its island's fastest contact-point speed; in (0, 1).
     penetration : {"toi", "bias"}
         Step bodies that flew into something back to their time of impact, or leave them
         where they ended and push them out through the contact velocities.
@@ -208,6 +211,7 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         contact_solver: str = ContactSettings.solver,
         contact_iterations: int = ContactSettings.iterations,
         friction_sides: int = ContactSettings.friction_sides,
+        contact_tolerance: float = ContactSettings.tolerance,
         penetration: str = ContactSettings.penetration,
         sleeping: bool = True,
         narrow_phase: str = "auto",
@@ -236,6 +240,7 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
             iterations=contact_iterations,
             friction_sides=friction_sides,
             penetration=penetration,
+            tolerance=contact_tolerance,
         )
         self._collision = CollisionPipeline(narrow_phase)
         self.narrow_phase = narrow_phase
@@ -881,6 +886,16 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         found = {key: value.copy() for key, value in contacts.items()}
         found["impulses"] = impulses.copy()
         return found
+
+    @property
+    def deepest_penetration(self) -> float:
+        """Largest penetration depth among the contacts of the last step (m; 0 with none),
+        without copying them out as :attr:`contacts` does: a study reads it every step."""
+        s = self._state
+        contacts = s.acted if self.contact_response else s.contacts
+        if contacts.count == 0:
+            return 0.0
+        return max(float(contacts["depths"].max()), 0.0)
 
 
 # The stages the step kernel leaves to Python, by stage index (their order and guards are the

@@ -1,0 +1,326 @@
+"""``rbd.study``: every combination of some world settings, run against a reference.
+
+A study is a list of runs, each a task for a worker: a reference run per seed, and a run per
+variant and seed. Workers build the scene, run it and send back its samples; this process
+measures each run against its seed's reference (:mod:`.measures`), records it in the study's
+folder the moment it arrives (:mod:`.folder`), and assembles the table
+(:class:`~thesis_rbd.studies.table.StudyTable`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import pickle
+import platform
+from collections.abc import Callable, Mapping
+
+from thesis_rbd.scene import Scene, SceneError
+from thesis_rbd.studies.executor import cluster_workers, run_tasks
+from thesis_rbd.studies.folder import StudyFolder
+from thesis_rbd.studies.grid import StudyError, Variant, check_settings, variant_grid
+from thesis_rbd.studies.measures import MEASURES, run_errors, seed_spread
+from thesis_rbd.studies.page import study_page
+from thesis_rbd.studies.sampling import conserves_momentum, sampled_run
+from thesis_rbd.studies.table import StudyTable, checked_thresholds
+from thesis_rbd.world.world import DEFAULT_DT
+
+__all__ = ["DEFAULT_PERTURBATION", "reference_settings", "run_task", "study"]
+
+DEFAULT_PERTURBATION = 1e-6
+"""Seeds other than 0 move each body by this fraction of its size and turn it by this many
+radians."""
+# The default reference: a quarter of the finest step, and contacts solved 100 times tighter
+# (with ten times the sweeps to get there).
+REFERENCE_STEP_DIVISOR = 4
+REFERENCE_TOLERANCE_DIVISOR = 100
+REFERENCE_ITERATION_FACTOR = 10
+
+
+def reference_settings(scene: Scene, grid: list[dict], named: Mapping | None) -> dict:
+    """The settings of the reference run: the scene's own, with a quarter of the finest
+    step in the grid (or the scene's), the contact tolerance tightened 100 times and ten
+    times the PGS sweeps; then whatever ``named`` sets."""
+    world = scene.world
+    finest = min(
+        [settings["dt"] for settings in grid if "dt" in settings]
+        + ([] if any("dt" in s for s in grid) else [world.get("dt", DEFAULT_DT)])
+    )
+    from thesis_rbd.dynamics.contact_settings import ContactSettings
+
+    settings = {
+        "dt": finest / REFERENCE_STEP_DIVISOR,
+        "contact_tolerance": world.get("contact_tolerance", ContactSettings.tolerance)
+        / REFERENCE_TOLERANCE_DIVISOR,
+        "contact_iterations": world.get("contact_iterations", ContactSettings.iterations)
+        * REFERENCE_ITERATION_FACTOR,
+    }
+    settings.update(named or {})
+    return settings
+
+
+_COMPILED_AHEAD: set[str] = set()
+
+
+def _compile_ahead(scene: Scene) -> None:
+    """In a worker's first run of a built-in scene, compile (or load) the scene's planned
+    kernels, taking turns with the other workers (:mod:`thesis_rbd._numba.compile_helpers`):
+    on a cold cache the workers share the compiling instead of waiting for one another."""
+    from thesis_rbd import scenes
+
+    if scene.name in _COMPILED_AHEAD or scene.source != f"built-in scene {scene.name!r}":
+        return
+    from thesis_rbd._numba.compile_helpers import compile_planned
+    from thesis_rbd._numba.compile_plan import load_plan
+
+    if scene.name in scenes.names():
+        compile_planned(load_plan().for_scenes([scene.name]))
+    _COMPILED_AHEAD.add(scene.name)
+
+
+def run_task(scene: Scene, settings: dict, seconds: float, seed: int, amount: float) -> dict:
+    """One run of a study, on a worker: the scene with ``settings``, perturbed for ``seed``.
+
+    Returns
+    -------
+    dict
+        ``samples``, ``wall``, ``failure`` (see :func:`.sampling.sampled_run`) and ``host``.
+    """
+    _compile_ahead(scene)
+    result = sampled_run(scene.with_world(**settings), seconds, seed, amount)
+    result["host"] = platform.node()
+    return result
+
+
+def _scene_key(scene: Scene) -> str:
+    """A hash of everything the scene is (its bodies, meshes, joints and settings)."""
+    return hashlib.sha1(pickle.dumps(scene, protocol=5)).hexdigest()[:16]
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
+
+
+def _as_scene(scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (str, os.PathLike)):
+        from thesis_rbd import scenes
+
+        try:
+            return scenes.resolve(str(scene))
+        except SceneError as exc:
+            raise StudyError(str(exc)) from None
+    raise StudyError(f"scene must be a Scene, a scene file or a built-in name, got {scene!r}")
+
+
+def _checked_count(value, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise StudyError(f"{name} must be an integer >= 1, got {value!r}")
+    return value
+
+
+def _checked_positive(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise StudyError(f"{name} must be a positive number, got {value!r}")
+    if not (math.isfinite(value) and value > 0):
+        raise StudyError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def study(
+    scene,
+    vary: Mapping[str, list],
+    seconds: float | None = None,
+    reference: Mapping | None = None,
+    seeds: int = 1,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    perturbation: float = DEFAULT_PERTURBATION,
+    out=None,
+    fresh: bool = False,
+    within: Mapping[str, float] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> StudyTable:
+    """Run every combination of ``vary`` on ``scene`` and measure each against a reference.
+
+    Parameters
+    ----------
+    scene : Scene, str or path
+        A scene, a scene file, a URDF file or a built-in scene's name.
+    vary : mapping of str to list
+        World settings (``grid.VARIABLE_SETTINGS``: dt, integrator, contact_solver,
+        narrow_phase, joint_substeps, ...) and the values each takes; every combination
+        runs.
+    seconds : float, optional
+        Simulated time of every run (s); the scene's own by default.
+    reference : mapping, optional
+        Settings of the reference run, over the default (:func:`reference_settings`: the
+        scene's own with a quarter of the finest step and contacts solved 100 times
+        tighter).
+    seeds : int
+        Runs per variant: seed 0 is the scene as written, seeds 1.. perturb its initial
+        poses by ``perturbation``. The references of the perturbed seeds measure how far
+        the scene itself amplifies so small a change (the table's ``*_floor`` columns).
+    scheduler : str, optional
+        A Dask scheduler's address (``tcp://HOST:PORT``): the runs go to that cluster.
+    workers : int, optional
+        Local worker processes; every core this process may use by default.
+    perturbation : float
+        Fraction of each body's size it is moved by, and radians it is turned by, in the
+        perturbed seeds.
+    out : path-like, optional
+        Folder for the records, ``results.csv`` and ``study.html``; a study run again with
+        the same folder resumes where it stopped.
+    fresh : bool
+        Forget the runs already recorded in ``out``.
+    within : mapping of str to float, optional
+        Thresholds per measure (``position``, ``orientation``, ``energy``, ``penetration``,
+        ``momentum``, ``angular_momentum``; in the scene's units): the page recommends the
+        cheapest variant within them (:meth:`StudyTable.recommend`).
+    progress : callable(done, total), optional
+        Called as runs finish.
+
+    Returns
+    -------
+    StudyTable
+        One row per variant and seed, in the grid's order.
+
+    Raises
+    ------
+    StudyError
+        Before anything runs, naming the fault: an unknown setting, a value the world
+        refuses, an empty grid, a bad count or span, a folder holding another study.
+        After the runs, if a reference run failed.
+    """
+    scene = _as_scene(scene)
+    seeds = _checked_count(seeds, "seeds")
+    seconds = _checked_positive(scene.seconds if seconds is None else seconds, "seconds")
+    perturbation = _checked_positive(perturbation, "perturbation")
+    if workers is None:
+        workers = _cores()
+    workers = _checked_count(workers, "workers")
+    if reference is not None and not isinstance(reference, Mapping):
+        raise StudyError(f"reference must be a mapping of settings, got {reference!r}")
+    grid = variant_grid(scene, vary)
+    if within is not None:
+        try:
+            checked_thresholds(within)
+        except ValueError as exc:
+            raise StudyError(str(exc)) from None
+    varied = list(vary)
+    base = reference_settings(scene, grid, reference)
+    check_settings(scene, base, "reference")
+    # the reference runs as long as the longest variant: ceil(seconds / dt) of its steps
+    span = max(math.ceil(seconds / s.get("dt", scene.world.get("dt", DEFAULT_DT)) - 1e-9)
+               * s.get("dt", scene.world.get("dt", DEFAULT_DT)) for s in grid)  # fmt: skip
+    definition = {
+        "scene": scene.name,
+        "scene_key": _scene_key(scene),
+        "seconds": seconds,
+        "perturbation": perturbation,
+        "reference": base,
+    }
+    definition["key"] = hashlib.sha1(repr(sorted(definition.items())).encode()).hexdigest()[:16]
+    folder = None if out is None else StudyFolder(out, definition, fresh)
+    conserving = conserves_momentum(scene)
+
+    runs = [Variant.of(settings, seed) for settings in grid for seed in range(seeds)]
+    references: dict[int, object] = {}
+    records: dict[str, dict] = {}
+    reference_keys = {seed: Variant.of(base, seed).key(definition["key"]) for seed in range(seeds)}
+    if folder is not None:
+        for seed, key in reference_keys.items():
+            stored = folder.load_reference(key)
+            if stored is not None:
+                references[seed] = stored
+        for run in runs:
+            key = run.key(definition["key"])
+            if folder.has_run(key):
+                records[key] = folder.load_run(key)
+
+    tasks, kinds = [], []
+    for seed in range(seeds):
+        if seed not in references:
+            tasks.append((scene, base, span, seed, perturbation))
+            kinds.append(("reference", seed))
+    for run in runs:
+        if run.key(definition["key"]) not in records:
+            tasks.append((scene, dict(run.settings), seconds, run.seed, perturbation))
+            kinds.append(("run", run))
+    waiting: dict[int, list] = {}
+    total, done = len(runs) + seeds, len(records) + len(references)
+    # how many runs shared the machine with each: the timing columns' context
+    beside = cluster_workers(scheduler) if scheduler else max(1, min(workers, len(tasks)))
+    cores = _cores()
+
+    def record_run(run: Variant, result: dict) -> None:
+        samples = result["samples"]
+        errors = run_errors(samples, references[run.seed], conserving)
+        simulated = samples.times[-1] - samples.times[0]
+        record = {
+            **dict(run.settings),
+            "seed": run.seed,
+            "status": "failed" if result["failure"] else "ok",
+            "failure": result["failure"] or "",
+            "steps": len(samples) - 1,
+            "wall_seconds": result["wall"],
+            "wall_per_second": float(result["wall"] / simulated) if simulated > 0 else math.nan,
+            "workers": beside,
+            "workers_per_core": beside / cores,
+            "host": result["host"],
+            **errors,
+        }
+        key = run.key(definition["key"])
+        records[key] = record
+        if folder is not None:
+            folder.save_run(key, record)
+
+    def on_result(index: int, result: dict) -> None:
+        nonlocal done
+        kind, what = kinds[index]
+        if kind == "reference":
+            if result["failure"]:
+                raise StudyError(f"the reference run of seed {what} failed: {result['failure']}")
+            references[what] = result["samples"]
+            if folder is not None:
+                folder.save_reference(reference_keys[what], result["samples"])
+            for run, pending in waiting.pop(what, []):
+                record_run(run, pending)
+        elif what.seed in references:
+            record_run(what, result)
+        else:
+            waiting.setdefault(what.seed, []).append((what, result))
+        done += 1
+        if progress is not None:
+            progress(done, total)
+
+    run_tasks(run_task, tasks, on_result, workers=workers, scheduler=scheduler)
+
+    floors = seed_spread([references[seed] for seed in range(seeds)], conserving)
+    rows = []
+    for run in runs:
+        row = dict(records[run.key(definition["key"])])
+        row.update({f"{m}_floor": floors[m] for m in MEASURES})
+        rows.append(row)
+    table = StudyTable(rows, varied, floors)
+    if folder is not None:
+        folder.write("results.csv", table.to_csv())
+        recommendation = None if not within else table.recommend(within)
+        description = (
+            f"{len(grid)} variants x {seeds} seed(s), {seconds:g} s each; reference: "
+            + ", ".join(
+                f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in base.items()
+            )
+            + (
+                f"; seeds 1.. perturbed by {perturbation:g} of each body's size and in radians"
+                if seeds > 1
+                else ""
+            )
+        )
+        folder.write("study.html", study_page(table, scene.name, description, recommendation))
+    return table
