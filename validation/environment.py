@@ -20,7 +20,6 @@ LIBRARIES = (
     "python-fcl",
     "pybullet",
     "matplotlib",
-    "joblib",
     "dask",
     "distributed",
     "jinja2",

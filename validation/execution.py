@@ -1,4 +1,4 @@
-"""Running cases: in this process, on local joblib workers, or on a Dask distributed cluster.
+"""Running cases: in this process, on local worker processes, or on a Dask distributed cluster.
 
 Timing cases run one after another (never two at once, never beside an accuracy case), on the
 same executor as the rest, because parallel runs on a small shared machine corrupt each
@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 
+from thesis_rbd.studies.executor import run_tasks
 from validation.cases import Case
 
 __all__ = ["execute_case", "run_cases"]
@@ -67,51 +68,32 @@ def run_cases(
     on_record : callable
         Called in this process, once per case.
     jobs : int
-        Local worker processes for accuracy-only cases (joblib, loky backend); 1 runs
-        everything in this process.
+        Local worker processes for accuracy-only cases; 1 runs everything in this process.
     scheduler : str, optional
         Address of a Dask distributed scheduler (``tcp://HOST:PORT``); when given, every case
         runs on the cluster and ``jobs`` is ignored.
+
+    Notes
+    -----
+    The workers are those of ``rbd.study`` (:func:`thesis_rbd.studies.executor.run_tasks`):
+    one way to run a grid of simulations in this repository.
     """
     parallel = [case for case in cases if not case.timed]
     serial = [case for case in cases if case.timed]
-    if scheduler:
-        _run_on_dask(parallel, serial, on_record, scheduler)
-    else:
-        _run_locally(parallel, serial, on_record, jobs)
-
-
-def _run_locally(parallel, serial, on_record, jobs):
-    if jobs > 1 and len(parallel) > 1:
-        from joblib import Parallel, delayed
-
-        def tagged(index, case):
-            return index, execute_case(case.study, case.params)
-
-        runner = Parallel(n_jobs=jobs, backend="loky", return_as="generator_unordered")
-        for index, record in runner(delayed(tagged)(i, c) for i, c in enumerate(parallel)):
-            on_record(parallel[index], record)
-    else:
-        serial = list(parallel) + list(serial)
+    if not scheduler and jobs <= 1:
+        parallel, serial = [], parallel + serial
+    run_tasks(
+        execute_case,
+        [(case.study, case.params) for case in parallel],
+        lambda index, record: on_record(parallel[index], record),
+        workers=jobs,
+        scheduler=scheduler,
+    )
     for case in serial:
-        on_record(case, execute_case(case.study, case.params))
-
-
-def _run_on_dask(parallel, serial, on_record, scheduler):
-    try:
-        from dask.distributed import Client, as_completed
-    except ImportError as error:  # pragma: no cover - depends on the environment
-        raise RuntimeError(
-            "--scheduler needs dask.distributed: pip install 'thesis_rbd[validation]'"
-        ) from error
-    with Client(scheduler) as client:
-        if parallel:
-            futures = {
-                client.submit(execute_case, case.study, case.params, pure=False): case
-                for case in parallel
-            }
-            for future in as_completed(futures):
-                on_record(futures[future], future.result())
-        for case in serial:
-            future = client.submit(execute_case, case.study, case.params, pure=False)
-            on_record(case, future.result())
+        # one at a time, on the cluster if there is one, else in this process
+        run_tasks(
+            execute_case,
+            [(case.study, case.params)],
+            lambda _index, record, case=case: on_record(case, record),
+            scheduler=scheduler,
+        )
