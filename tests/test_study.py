@@ -136,6 +136,19 @@ def test_a_run_that_fails_is_recorded_with_its_error():
     assert table.recommend({"orientation": 1.0}).settings == {"angular_drag": 0.0}
 
 
+def test_joint_substeps_are_a_setting_like_any_other():
+    """The double pendulum at dt = 1/60: each doubling of the joint substeps about halves
+    its error (the substep is first order in its length)."""
+    table = rbd.study(
+        "double_pendulum", vary={"dt": [1 / 60], "joint_substeps": [1, 2, 4]}, seconds=1.0,
+        workers=1,
+    )  # fmt: skip
+    errors = table["position_error"]
+    assert list(table["joint_substeps"]) == [1, 2, 4] and set(table["status"]) == {"ok"}
+    ratios = errors[:-1] / errors[1:]
+    assert np.all((ratios > 1.6) & (ratios < 3.0)), errors
+
+
 # ---------------------------------------------------------------------- the grid's checks
 def test_command_line_values_are_read_as_numbers_names_and_flags():
     assert parse_value("1/240") == pytest.approx(1 / 240)
@@ -318,3 +331,20 @@ def test_the_command_line_refuses_bad_input_in_a_line(tmp_path, options, message
     assert result.returncode == 1
     assert message in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "s").exists()
+
+
+def test_a_script_without_a_main_guard_runs_a_study_on_workers(tmp_path):
+    """Spawned workers do not run the calling script again (which would start a study in
+    each of them)."""
+    script = tmp_path / "my_study.py"
+    script.write_text(
+        "import thesis_rbd as rbd\n"
+        "table = rbd.study('bouncing_ball', vary={'dt': [1/60, 1/120]}, seconds=0.2, workers=2)\n"
+        "print('runs', len(table))\n",
+        encoding="utf-8",
+    )
+    result = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "runs 2"

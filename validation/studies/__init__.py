@@ -49,6 +49,7 @@ from validation.studies import (
     query_costs,
     robot_benchmarks,
     sap_benchmarks,
+    scene_studies,
     stability_suite,
     startup,
     step_benchmarks,
@@ -85,6 +86,7 @@ STUDIES: dict[str, ModuleType] = {
         joint_benchmarks,
         urdf_survey,
         robot_benchmarks,
+        scene_studies,
         startup,
     )
 }

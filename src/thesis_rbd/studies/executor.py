@@ -15,7 +15,9 @@ the worker from the repository's root) on every node.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import sys
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -73,6 +75,25 @@ def run_tasks(
             on_result(index, function(*arguments))
 
 
+@contextlib.contextmanager
+def _main_script_hidden():
+    """While worker processes start, hide the path of the script run as ``__main__``.
+
+    A spawned worker runs the parent's main script again (as ``__mp_main__``) before it
+    takes a task, so that functions defined there can be unpickled; a script that calls
+    ``rbd.study`` outside an ``if __name__ == "__main__":`` guard would then start a study in
+    every worker, which multiprocessing refuses. The tasks here are this package's own
+    functions, so the workers need nothing from the script: without its path they skip it.
+    """
+    main = sys.modules["__main__"]
+    path = main.__dict__.pop("__file__", None) if getattr(main, "__spec__", None) is None else None
+    try:
+        yield
+    finally:
+        if path is not None:
+            main.__file__ = path
+
+
 def _run_on_processes(function, tasks, on_result, workers, retries):
     pending = list(range(len(tasks)))
     deaths = dict.fromkeys(pending, 0)
@@ -81,7 +102,8 @@ def _run_on_processes(function, tasks, on_result, workers, retries):
         with ProcessPoolExecutor(
             max_workers=min(workers, len(pending)), mp_context=context
         ) as pool:
-            futures = {pool.submit(function, *tasks[index]): index for index in pending}
+            with _main_script_hidden():  # the workers start as the tasks are submitted
+                futures = {pool.submit(function, *tasks[index]): index for index in pending}
             broken = False
             try:
                 while futures and not broken:
