@@ -24,7 +24,7 @@ from thesis_rbd.scene import parse_scene
 from thesis_rbd.studies import TIMING_COLUMNS, StudyError
 from thesis_rbd.studies.grid import parse_assignments, parse_value, parse_vary
 from thesis_rbd.studies.run import reference_settings
-from thesis_rbd.studies.sampling import sampled_run
+from thesis_rbd.studies.sampling import sample_run, sampled_run
 
 # A box with a square cross-section (I1 = I2) spinning off its axes, no gravity: torque-free
 # precession, which has a closed form.
@@ -120,6 +120,32 @@ def test_bouncing_ball_errors_against_the_e_squared_rule():
     np.testing.assert_allclose(above[apexes], e ** (2 * np.arange(1, len(apexes) + 1)), rtol=2e-3)
 
 
+def test_sampled_energy_and_momenta_are_the_worlds_own_readouts_step_by_step():
+    """The totals worked out after a run from the per-step copies (the fast path) against
+    the world's own readouts taken after every step (the slow reference)."""
+    scene = rbd.scenes.get("rain")
+    samples, _, failure = sample_run(scene.build(), 0.5)
+    world = scene.build()
+    static = world.bodies.static
+    for k in range(len(samples)):
+        if k:
+            world.step()
+        b = world.bodies
+        energy = world.kinetic_energy() + world.potential_energy()
+        assert samples.energy[k] == pytest.approx(energy, rel=1e-12, abs=1e-12)
+        momentum = b.linear_momentum[~static].sum(axis=0)
+        np.testing.assert_allclose(samples.linear_momentum[k], momentum, rtol=1e-12, atol=1e-12)
+        angular = sum(
+            b.angular_momentum[i] + np.cross(b.position[i], b.linear_momentum[i])
+            for i in range(len(world))
+            if not static[i]
+        )
+        np.testing.assert_allclose(samples.angular_momentum[k], angular, rtol=1e-12, atol=1e-9)
+        np.testing.assert_array_equal(samples.positions[k], b.position)
+        assert samples.penetration[k] == world.deepest_penetration
+    assert failure is None and len(samples) == 121
+
+
 def test_momentum_is_measured_only_where_nothing_outside_acts():
     table = rbd.study(top_scene(0.5), vary={"dt": [1 / 60]}, workers=1)
     assert table["momentum_error"][0] < 1e-12 and table["angular_momentum_error"][0] < 1e-9
@@ -138,10 +164,11 @@ def test_a_run_that_fails_is_recorded_with_its_error():
 
 def test_joint_substeps_are_a_setting_like_any_other():
     """The double pendulum at dt = 1/60: each doubling of the joint substeps about halves
-    its error (the substep is first order in its length)."""
+    its error (the substep is first order in its length), against a reference finer than
+    every substep (the default, dt / 4, would be the four-substep run itself)."""
     table = rbd.study(
         "double_pendulum", vary={"dt": [1 / 60], "joint_substeps": [1, 2, 4]}, seconds=1.0,
-        workers=1,
+        reference={"dt": 1 / 1920}, workers=1,
     )  # fmt: skip
     errors = table["position_error"]
     assert list(table["joint_substeps"]) == [1, 2, 4] and set(table["status"]) == {"ok"}
@@ -191,6 +218,37 @@ def test_bad_input_is_refused_before_anything_runs(tmp_path, arguments, message)
     assert not list(tmp_path.glob("study/runs/*")) and not list(tmp_path.glob("study/*.csv"))
 
 
+def test_a_reference_that_fails_is_an_error_and_records_nothing(tmp_path):
+    with pytest.raises(StudyError, match=r"reference run of seed 0 failed.*non-finite"):
+        rbd.study(
+            top_scene(0.5), vary={"dt": [0.01]}, reference={"angular_drag": 1000.0},
+            out=tmp_path, workers=1,
+        )  # fmt: skip
+    assert not list(tmp_path.glob("runs/*")) and not (tmp_path / "results.csv").exists()
+
+
+def test_pandas_and_dask_are_optional_with_a_clear_message(monkeypatch):
+    import builtins
+
+    table = rbd.study(top_scene(0.1), vary={"dt": [0.05]}, workers=1)
+    real_import = builtins.__import__
+
+    def without(*names):
+        def refuse(name, *args, **kwargs):
+            if name.split(".")[0] in names:
+                raise ImportError(f"No module named {name!r}")
+            return real_import(name, *args, **kwargs)
+
+        return refuse
+
+    monkeypatch.setattr(builtins, "__import__", without("pandas"))
+    with pytest.raises(ImportError, match="pip install pandas"):
+        table.to_pandas()
+    monkeypatch.setattr(builtins, "__import__", without("dask", "distributed"))
+    with pytest.raises(ImportError, match=r"pip install 'dask\[distributed\]'"):
+        rbd.study(top_scene(0.1), vary={"dt": [0.05]}, scheduler="tcp://127.0.0.1:1")
+
+
 def test_a_folder_of_another_study_is_not_mixed_with_this_one(tmp_path):
     rbd.study(top_scene(0.1), vary={"dt": [0.05]}, out=tmp_path, workers=1)
     with pytest.raises(StudyError, match=r"another study.*seconds"):
@@ -226,7 +284,12 @@ def test_two_local_workers_and_a_dask_cluster_make_the_same_table(in_process, tm
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
         on_dask = rbd.study(top_scene(1.0), scheduler=cluster.scheduler_address, **STUDY)
+        # a scene whose runs differ in their last bits with the number of BLAS threads (Dask
+        # runs one per worker) and that amplifies it: one thread everywhere
+        pyramid = {"vary": {"dt": [1 / 60], "narrow_phase": ["mesh"]}, "seeds": 3}
+        pyramid_on_dask = rbd.study("pyramid", scheduler=cluster.scheduler_address, **pyramid)
     _same_tables(on_dask, in_process)
+    _same_tables(pyramid_on_dask, rbd.study("pyramid", workers=1, **pyramid))
     assert len(in_process) == 8 and in_process.floors["orientation_error"] > 0
 
 
@@ -249,7 +312,7 @@ def test_a_killed_worker_loses_no_run(in_process, tmp_path):
     def kill_a_worker():
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and not killed:
-            records = list((tmp_path / "runs").glob("*.json"))
+            records = list((tmp_path / "runs").glob("[!.]*.json"))
             workers = _workers()
             if records and workers:
                 workers[0].kill()
@@ -279,18 +342,18 @@ def test_an_interrupted_study_resumes_where_it_stopped(in_process, tmp_path):
     ]  # fmt: skip
     first = subprocess.Popen(command, start_new_session=True)
     deadline = time.monotonic() + 300
-    while len(list(out.glob("runs/*.json"))) < 2 and time.monotonic() < deadline:
+    while len(list(out.glob("runs/[!.]*.json"))) < 2 and time.monotonic() < deadline:
         if first.poll() is not None:
             break
         time.sleep(0.02)
     os.killpg(first.pid, signal.SIGKILL)  # the study and its workers, at once
     first.wait()
-    finished = {path: path.stat().st_mtime_ns for path in out.glob("runs/*.json")}
+    finished = {path: path.stat().st_mtime_ns for path in out.glob("runs/[!.]*.json")}
     assert 2 <= len(finished) < 8 and not (out / "results.csv").exists()
     subprocess.run(command, check=True, timeout=300)
     # every earlier record kept as it was, each run recorded once, the table whole
     assert all(path.stat().st_mtime_ns == mtime for path, mtime in finished.items())
-    assert len(list(out.glob("runs/*.json"))) == 8
+    assert len(list(out.glob("runs/[!.]*.json"))) == 8
     rows = (out / "results.csv").read_text().splitlines()
     assert len(rows) == 9
     resumed = rbd.study(scene_file, out=out, workers=1, **STUDY)  # all recorded: runs nothing

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
+from thesis_rbd._atomic import atomic_path
 from validation.cases import Case
 
 __all__ = ["ResultStore"]
@@ -16,7 +15,8 @@ class ResultStore:
     """Per-case records under ``root/<study>/<case id>.json``, each written atomically.
 
     A record is written to a temporary file in the same folder and renamed over the final
-    name, so a campaign killed mid-write leaves either the whole record or none.
+    name (``thesis_rbd._atomic``, as a study's records), so a campaign killed mid-write
+    leaves either the whole record or none.
 
     Parameters
     ----------
@@ -44,16 +44,8 @@ class ResultStore:
         """Write the record of ``case`` atomically and return its path."""
         path = self.path(case)
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{case.id}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                json.dump(record, f, indent=1, sort_keys=True)
-                f.write("\n")
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        with atomic_path(path) as temporary:
+            temporary.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n", "utf-8")
         return path
 
     def clear(self, study: str) -> int:

@@ -588,7 +588,7 @@ def study(
                 )
             finally:
                 status.close()
-        except StudyError as exc:
+        except (StudyError, ImportError) as exc:
             raise InputError(str(exc)) from None
     if quiet:
         return

@@ -118,6 +118,13 @@ def _as_scene(scene) -> Scene:
     raise StudyError(f"scene must be a Scene, a scene file or a built-in name, got {scene!r}")
 
 
+def _cluster_workers(scheduler: str) -> int:
+    try:
+        return cluster_workers(scheduler)
+    except (OSError, TimeoutError) as exc:
+        raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+
+
 def _checked_count(value, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise StudyError(f"{name} must be an integer >= 1, got {value!r}")
@@ -226,6 +233,9 @@ def study(
         "reference": base,
     }
     definition["key"] = hashlib.sha1(repr(sorted(definition.items())).encode()).hexdigest()[:16]
+    # how many runs share the machine with each (the timing columns' context); asking the
+    # cluster first makes a missing dask or an unreachable scheduler an error before any run
+    cluster = _cluster_workers(scheduler) if scheduler else None
     folder = None if out is None else StudyFolder(out, definition, fresh)
     conserving = conserves_momentum(scene)
 
@@ -254,8 +264,7 @@ def study(
             kinds.append(("run", run))
     waiting: dict[int, list] = {}
     total, done = len(runs) + seeds, len(records) + len(references)
-    # how many runs shared the machine with each: the timing columns' context
-    beside = cluster_workers(scheduler) if scheduler else max(1, min(workers, len(tasks)))
+    beside = cluster if scheduler else max(1, min(workers, len(tasks)))
     cores = _cores()
 
     def record_run(run: Variant, result: dict) -> None:

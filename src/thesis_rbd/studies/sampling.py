@@ -2,9 +2,15 @@
 
 What is sampled is what the error measures (:mod:`.measures`) compare: every body's pose, the
 world's energy, the deepest penetration of the step's contacts, and the total linear and
-angular momentum. Only the steps are timed (a clock read around each ``World.step``), so the
-sampling costs nothing in the wall time a study reports; a run during which numba compiled a
-kernel is run again, warm, so compiling costs nothing in it either.
+angular momentum (worked out after the run from each step's copy of the bodies' state, so
+that a step costs the sampling a few array copies). Only the steps are timed (a clock read
+around each ``World.step``), so the sampling costs nothing in the wall time a study reports;
+a run during which numba compiled a kernel is run again, warm, so compiling costs nothing in
+it either.
+
+A run is limited to one BLAS thread (:func:`sampled_run`): the solvers' few matrix products
+and solves come out different in their last bits with more threads, which a chaotic scene
+amplifies, and Dask's workers run with one; so every runner gets the same table.
 """
 
 from __future__ import annotations
@@ -15,9 +21,11 @@ from time import perf_counter
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+from threadpoolctl import threadpool_limits
 
 from thesis_rbd._numba.compile_log import CompileLog
 from thesis_rbd.scene import Scene
+from thesis_rbd.spatial.quaternion import quat_conjugate, quat_rotate
 from thesis_rbd.world import NonFiniteStateError, World
 
 __all__ = ["RunSamples", "conserves_momentum", "perturb", "sample_run", "sampled_run"]
@@ -54,28 +62,39 @@ class RunSamples:
     def __len__(self) -> int:
         return len(self.times)
 
-    def head(self, count: int) -> RunSamples:
-        """The first ``count`` samples (what a run that failed got to)."""
-        return RunSamples(*(getattr(self, name)[:count] for name in self.__dataclass_fields__))
 
+def _totals(world: World, positions, orientations, momenta, angular_momenta) -> tuple:
+    """Energy (T,), total linear and angular momentum (T, 3) of the sampled states, for all
+    samples at once (what ``World.kinetic_energy`` and ``potential_energy`` give for one).
 
-def _record(world: World, samples: RunSamples, k: int) -> None:
+    Parameters
+    ----------
+    positions, momenta, angular_momenta : (T, n, 3) ndarray
+        x, P and L of every body (world frame) at every sample.
+    orientations : (T, n, 4) ndarray
+    """
     b = world.bodies
     dynamic = ~b.static
-    samples.times[k] = world.time
-    samples.positions[k] = b.position
-    samples.orientations[k] = b.orientation
-    samples.energy[k] = world.kinetic_energy() + world.potential_energy()
-    samples.penetration[k] = world.deepest_penetration
-    momentum = b.linear_momentum[dynamic]
-    samples.linear_momentum[k] = momentum.sum(axis=0)
-    samples.angular_momentum[k] = (
-        b.angular_momentum[dynamic] + np.cross(b.position[dynamic], momentum)
-    ).sum(axis=0)
+    frames, n = positions.shape[:2]
+    linear = 0.5 * np.einsum("tij,tij,i->t", momenta, momenta, b.inverse_mass)
+    body_frame = quat_rotate(
+        quat_conjugate(orientations.reshape(-1, 4)), angular_momenta.reshape(-1, 3)
+    ).reshape(frames, n, 3)
+    angular = 0.5 * np.einsum("tij,ijk,tik->t", body_frame, b.inverse_inertia_body, body_frame)
+    potential = -np.einsum("tij,j,i->t", positions[:, dynamic], world.gravity, b.mass[dynamic])
+    p, x = momenta[:, dynamic], positions[:, dynamic]
+    return (
+        linear + angular + potential,
+        p.sum(axis=1),
+        (angular_momenta[:, dynamic] + np.cross(x, p)).sum(axis=1),
+    )
 
 
 def sample_run(world: World, seconds: float) -> tuple[RunSamples, float, str | None]:
     """Step ``world`` for ``seconds`` (ceil(seconds / dt) steps), sampling after each step.
+
+    Each step copies the bodies' state and reads its deepest contact (a few microseconds);
+    the energy and the momenta are worked out from the copies after the run.
 
     Returns
     -------
@@ -88,22 +107,34 @@ def sample_run(world: World, seconds: float) -> tuple[RunSamples, float, str | N
     """
     steps = max(1, math.ceil(seconds / world.dt - 1e-9))
     n = len(world)
+    times, penetration = np.empty(steps + 1), np.empty(steps + 1)
+    x, q = np.empty((steps + 1, n, 3)), np.empty((steps + 1, n, 4))
+    p, angular = np.empty((steps + 1, n, 3)), np.empty((steps + 1, n, 3))
+    b = world.bodies
+    wall, failure, taken = 0.0, None, steps + 1
+    for k in range(steps + 1):
+        if k:
+            start = perf_counter()
+            try:
+                world.step()
+            except NonFiniteStateError as exc:
+                wall += perf_counter() - start
+                failure, taken = str(exc), k
+                break
+            wall += perf_counter() - start
+        times[k], penetration[k] = world.time, world.deepest_penetration
+        x[k], q[k], p[k], angular[k] = (
+            b.position,
+            b.orientation,
+            b.linear_momentum,
+            b.angular_momentum,
+        )
+    x, q, p, angular = x[:taken], q[:taken], p[:taken], angular[:taken]
+    energy, momentum, angular_momentum = _totals(world, x, q, p, angular)
     samples = RunSamples(
-        np.empty(steps + 1), np.empty((steps + 1, n, 3)), np.empty((steps + 1, n, 4)),
-        np.empty(steps + 1), np.empty(steps + 1), np.empty((steps + 1, 3)),
-        np.empty((steps + 1, 3)),
-    )  # fmt: skip
-    _record(world, samples, 0)
-    wall = 0.0
-    for k in range(1, steps + 1):
-        start = perf_counter()
-        try:
-            world.step()
-        except NonFiniteStateError as exc:
-            return samples.head(k), wall + perf_counter() - start, str(exc)
-        wall += perf_counter() - start
-        _record(world, samples, k)
-    return samples, wall, None
+        times[:taken], x, q, energy, penetration[:taken], momentum, angular_momentum
+    )
+    return samples, wall, failure
 
 
 def perturb(world: World, seed: int, amount: float) -> None:
@@ -157,7 +188,7 @@ def sampled_run(scene: Scene, seconds: float, seed: int, amount: float) -> dict:
         ``samples`` (RunSamples), ``wall`` (s), ``failure`` (str or None).
     """
     for _attempt in range(3):
-        with CompileLog() as log:
+        with CompileLog() as log, threadpool_limits(limits=1):
             world = scene.build()
             perturb(world, seed, amount)
             samples, wall, failure = sample_run(world, seconds)

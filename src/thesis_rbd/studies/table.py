@@ -127,6 +127,14 @@ class StudyTable:
             raise ImportError("StudyTable.to_pandas needs pandas: pip install pandas") from exc
         return pandas.DataFrame(self.rows, columns=self.columns)
 
+    def to_parquet(self, path) -> None:
+        """Write the table as a Parquet file (needs pandas and pyarrow, optional)."""
+        frame = self.to_pandas()
+        try:
+            frame.to_parquet(path)
+        except ImportError as exc:
+            raise ImportError("StudyTable.to_parquet needs pyarrow: pip install pyarrow") from exc
+
     def to_csv(self) -> str:
         """The table as CSV text, one row per run, columns as :attr:`columns`."""
         buffer = io.StringIO()
