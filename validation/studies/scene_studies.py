@@ -46,7 +46,7 @@ VARY = {
     "quick": {"dt": [1 / 60, 1 / 240], "contact_solver": ["pgs", "auto"], "narrow_phase": ["auto"]},
     "tiny": {"dt": [1 / 60, 1 / 120]},
 }
-SEEDS = {"full": 3, "quick": 2, "tiny": 1}
+SEEDS = {"full": 5, "quick": 2, "tiny": 1}
 WARM_UP_SECONDS = 0.05
 SECONDS = {"full": None, "quick": 1.0, "tiny": 0.25}  # None: the scene's own (3 s, 4 s)
 

@@ -258,7 +258,10 @@ def study(
         if seed not in references:
             tasks.append((scene, base, span, seed, perturbation))
             kinds.append(("reference", seed))
-    for run in runs:
+    # the longest runs first (the references, then the most steps), so that two workers do
+    # not end with one long run left to one of them
+    scene_dt = scene.world.get("dt", DEFAULT_DT)
+    for run in sorted(runs, key=lambda r: dict(r.settings).get("dt", scene_dt)):
         if run.key(definition["key"]) not in records:
             tasks.append((scene, dict(run.settings), seconds, run.seed, perturbation))
             kinds.append(("run", run))
