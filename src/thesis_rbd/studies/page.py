@@ -55,37 +55,37 @@ def accuracy_figure(table: StudyTable):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     variants = [v for v in table.variants() if not v["failed"]]
-    figure, axes = plt.subplots(1, len(PLOTTED), figsize=(4.2 * len(PLOTTED), 3.8))
-    for axis, measure in zip(axes, PLOTTED, strict=True):
+    figure, axes = plt.subplots(2, 2, figsize=(11, 8.5))
+    for axis, measure in zip(axes.flat, PLOTTED, strict=True):
         points = [v for v in variants if v[measure] > 0 and not math.isnan(v[measure])]
-        for v in points:
-            axis.loglog(v["wall_per_second"], v[measure], "o", color="tab:blue", alpha=0.7)
-            axis.annotate(
-                ", ".join(_number(x, 2) for x in v["settings"].values()),
-                (v["wall_per_second"], v[measure]),
-                fontsize=6,
-                xytext=(3, 3),
-                textcoords="offset points",
-            )
+        axis.loglog(
+            [v["wall_per_second"] for v in points], [v[measure] for v in points], "o",
+            color="tab:blue", alpha=0.6, label="variant",
+        )  # fmt: skip
         front = [v for v in table.pareto_front(measure) if v[measure] > 0]
         if front:
             axis.loglog(
-                [v["wall_per_second"] for v in front],
-                [v[measure] for v in front],
-                "-",
-                color="tab:orange",
-                label="Pareto front",
-            )
+                [v["wall_per_second"] for v in front], [v[measure] for v in front], "-o",
+                color="tab:orange", label="Pareto front",
+            )  # fmt: skip
+        for v in front:  # only the front is labelled: the page's table names every variant
+            axis.annotate(
+                ", ".join(_number(x, 2) for x in v["settings"].values()),
+                (v["wall_per_second"], v[measure]),
+                fontsize=7, xytext=(4, 4), textcoords="offset points",
+            )  # fmt: skip
         floor = table.floors.get(measure, math.nan)
         if floor > 0:
             axis.axhline(floor, color="grey", linestyle="--", label="seed floor")
+        axis.xaxis.set_minor_formatter(NullFormatter())
         axis.set_xlabel("wall time per simulated second (s/s)")
         axis.set_ylabel(f"{measure.replace('_', ' ')} ({UNITS[measure]})")
         axis.grid(True, which="both", alpha=0.3)
-        if front or floor > 0:
-            axis.legend(fontsize=7)
+        axis.legend(fontsize=8)
+    figure.suptitle("settings: " + ", ".join(table.varied), fontsize=9)
     figure.tight_layout()
     return figure
 
