@@ -411,3 +411,26 @@ def test_a_script_without_a_main_guard_runs_a_study_on_workers(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "runs 2"
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="interrupts by signal")
+def test_ctrl_c_stops_a_study_in_a_line_and_the_same_command_resumes(tmp_path):
+    scene_file = tmp_path / "top.toml"
+    scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
+    out = tmp_path / "study"
+    command = [
+        sys.executable, "-m", "thesis_rbd.cli", "study", str(scene_file), "--out", str(out),
+        "--vary", "integrator=euler,rk4", "--vary", "dt=1/2000,1/4000", "--seeds", "2",
+        "-j", "2", "--quiet",
+    ]  # fmt: skip
+    first = subprocess.Popen(command, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while not list(out.glob("runs/[!.]*.json")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    os.killpg(first.pid, signal.SIGINT)  # what Ctrl-C sends: the study and its workers
+    _, stderr = first.communicate(timeout=120)
+    assert first.returncode == 130, stderr
+    assert "interrupted" in stderr and "Traceback" not in stderr
+    subprocess.run(command, check=True, timeout=300)
+    assert len(list(out.glob("runs/[!.]*.json"))) == 8
+    assert len((out / "results.csv").read_text().splitlines()) == 9

@@ -590,6 +590,14 @@ def study(
                 status.close()
         except (StudyError, ImportError) as exc:
             raise InputError(str(exc)) from None
+        except KeyboardInterrupt:
+            done = len(list((out / "runs").glob("[!.]*.json")))
+            typer.echo(
+                f"thesis-rbd: interrupted; {done} runs are recorded in {out}: the same command "
+                "runs the rest",
+                err=True,
+            )
+            raise typer.Exit(code=130) from None
     if quiet:
         return
     failed = sum(row["status"] != "ok" for row in table)
