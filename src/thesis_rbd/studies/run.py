@@ -2,9 +2,8 @@
 
 A study is a list of runs, each a task for a worker: a reference run per seed, and a run per
 variant and seed. Workers build the scene, run it and send back its samples; this process
-measures each run against its seed's reference (:mod:`.measures`), records it in the study's
-folder the moment it arrives (:mod:`.folder`), and assembles the table
-(:class:`~thesis_rbd.studies.table.StudyTable`).
+measures and records each as it arrives (:mod:`.results`), then writes the table
+(:class:`~thesis_rbd.studies.table.StudyTable`) and its page.
 """
 
 from __future__ import annotations
@@ -16,12 +15,13 @@ import pickle
 import platform
 from collections.abc import Callable, Mapping
 
+from thesis_rbd.dynamics.contact_settings import ContactSettings
 from thesis_rbd.scene import Scene, SceneError
-from thesis_rbd.studies.executor import cluster_workers, run_tasks
+from thesis_rbd.studies.executor import cluster_workers, run_tasks, usable_cores
 from thesis_rbd.studies.folder import StudyFolder
 from thesis_rbd.studies.grid import StudyError, Variant, check_settings, variant_grid
-from thesis_rbd.studies.measures import MEASURES, run_errors, seed_spread
 from thesis_rbd.studies.page import study_page
+from thesis_rbd.studies.results import StudyResults
 from thesis_rbd.studies.sampling import conserves_momentum, sampled_run
 from thesis_rbd.studies.table import StudyTable, checked_thresholds
 from thesis_rbd.world.world import DEFAULT_DT
@@ -43,12 +43,7 @@ def reference_settings(scene: Scene, grid: list[dict], named: Mapping | None) ->
     step in the grid (or the scene's), the contact tolerance tightened 100 times and ten
     times the PGS sweeps; then whatever ``named`` sets."""
     world = scene.world
-    finest = min(
-        [settings["dt"] for settings in grid if "dt" in settings]
-        + ([] if any("dt" in s for s in grid) else [world.get("dt", DEFAULT_DT)])
-    )
-    from thesis_rbd.dynamics.contact_settings import ContactSettings
-
+    finest = min(settings.get("dt", world.get("dt", DEFAULT_DT)) for settings in grid)
     settings = {
         "dt": finest / REFERENCE_STEP_DIVISOR,
         "contact_tolerance": world.get("contact_tolerance", ContactSettings.tolerance)
@@ -96,13 +91,6 @@ def run_task(scene: Scene, settings: dict, seconds: float, seed: int, amount: fl
 def _scene_key(scene: Scene) -> str:
     """A hash of everything the scene is (its bodies, meshes, joints and settings)."""
     return hashlib.sha1(pickle.dumps(scene, protocol=5)).hexdigest()[:16]
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return os.cpu_count() or 1
 
 
 def _as_scene(scene) -> Scene:
@@ -209,7 +197,7 @@ def study(
     seconds = _checked_positive(scene.seconds if seconds is None else seconds, "seconds")
     perturbation = _checked_positive(perturbation, "perturbation")
     if workers is None:
-        workers = _cores()
+        workers = usable_cores()
     workers = _checked_count(workers, "workers")
     if reference is not None and not isinstance(reference, Mapping):
         raise StudyError(f"reference must be a mapping of settings, got {reference!r}")
@@ -219,12 +207,8 @@ def study(
             checked_thresholds(within)
         except ValueError as exc:
             raise StudyError(str(exc)) from None
-    varied = list(vary)
     base = reference_settings(scene, grid, reference)
     check_settings(scene, base, "reference")
-    # the reference runs as long as the longest variant: ceil(seconds / dt) of its steps
-    span = max(math.ceil(seconds / s.get("dt", scene.world.get("dt", DEFAULT_DT)) - 1e-9)
-               * s.get("dt", scene.world.get("dt", DEFAULT_DT)) for s in grid)  # fmt: skip
     definition = {
         "scene": scene.name,
         "scene_key": _scene_key(scene),
@@ -237,102 +221,44 @@ def study(
     # cluster first makes a missing dask or an unreachable scheduler an error before any run
     cluster = _cluster_workers(scheduler) if scheduler else None
     folder = None if out is None else StudyFolder(out, definition, fresh)
-    conserving = conserves_momentum(scene)
 
     runs = [Variant.of(settings, seed) for settings in grid for seed in range(seeds)]
-    references: dict[int, object] = {}
-    records: dict[str, dict] = {}
-    reference_keys = {seed: Variant.of(base, seed).key(definition["key"]) for seed in range(seeds)}
-    if folder is not None:
-        for seed, key in reference_keys.items():
-            stored = folder.load_reference(key)
-            if stored is not None:
-                references[seed] = stored
-        for run in runs:
-            key = run.key(definition["key"])
-            if folder.has_run(key):
-                records[key] = folder.load_run(key)
+    results = StudyResults(runs, seeds, base, definition["key"], conserves_momentum(scene), folder)
+    tasks, kinds = results.tasks(scene, seconds, _span(scene, grid, seconds), perturbation)
+    results.workers = cluster if scheduler else max(1, min(workers, len(tasks)))
+    results.progress = progress
+    run_tasks(
+        run_task, tasks, lambda i, r: results.take(kinds[i], r), workers=workers,
+        scheduler=scheduler,
+    )  # fmt: skip
 
-    tasks, kinds = [], []
-    for seed in range(seeds):
-        if seed not in references:
-            tasks.append((scene, base, span, seed, perturbation))
-            kinds.append(("reference", seed))
-    # the longest runs first (the references, then the most steps), so that two workers do
-    # not end with one long run left to one of them
-    scene_dt = scene.world.get("dt", DEFAULT_DT)
-    for run in sorted(runs, key=lambda r: dict(r.settings).get("dt", scene_dt)):
-        if run.key(definition["key"]) not in records:
-            tasks.append((scene, dict(run.settings), seconds, run.seed, perturbation))
-            kinds.append(("run", run))
-    waiting: dict[int, list] = {}
-    total, done = len(runs) + seeds, len(records) + len(references)
-    beside = cluster if scheduler else max(1, min(workers, len(tasks)))
-    cores = _cores()
-
-    def record_run(run: Variant, result: dict) -> None:
-        samples = result["samples"]
-        errors = run_errors(samples, references[run.seed], conserving)
-        simulated = samples.times[-1] - samples.times[0]
-        record = {
-            **dict(run.settings),
-            "seed": run.seed,
-            "status": "failed" if result["failure"] else "ok",
-            "failure": result["failure"] or "",
-            "steps": len(samples) - 1,
-            "wall_seconds": result["wall"],
-            "wall_per_second": float(result["wall"] / simulated) if simulated > 0 else math.nan,
-            "workers": beside,
-            "workers_per_core": beside / cores,
-            "host": result["host"],
-            **errors,
-        }
-        key = run.key(definition["key"])
-        records[key] = record
-        if folder is not None:
-            folder.save_run(key, record)
-
-    def on_result(index: int, result: dict) -> None:
-        nonlocal done
-        kind, what = kinds[index]
-        if kind == "reference":
-            if result["failure"]:
-                raise StudyError(f"the reference run of seed {what} failed: {result['failure']}")
-            references[what] = result["samples"]
-            if folder is not None:
-                folder.save_reference(reference_keys[what], result["samples"])
-            for run, pending in waiting.pop(what, []):
-                record_run(run, pending)
-        elif what.seed in references:
-            record_run(what, result)
-        else:
-            waiting.setdefault(what.seed, []).append((what, result))
-        done += 1
-        if progress is not None:
-            progress(done, total)
-
-    run_tasks(run_task, tasks, on_result, workers=workers, scheduler=scheduler)
-
-    floors = seed_spread([references[seed] for seed in range(seeds)], conserving)
-    rows = []
-    for run in runs:
-        row = dict(records[run.key(definition["key"])])
-        row.update({f"{m}_floor": floors[m] for m in MEASURES})
-        rows.append(row)
-    table = StudyTable(rows, varied, floors)
+    table = results.table(list(vary))
     if folder is not None:
         folder.write("results.csv", table.to_csv())
         recommendation = None if not within else table.recommend(within)
-        description = (
-            f"{len(grid)} variants x {seeds} seed(s), {seconds:g} s each; reference: "
-            + ", ".join(
-                f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in base.items()
-            )
-            + (
-                f"; seeds 1.. perturbed by {perturbation:g} of each body's size and in radians"
-                if seeds > 1
-                else ""
-            )
-        )
+        description = _description(len(grid), seeds, seconds, base, perturbation)
         folder.write("study.html", study_page(table, scene.name, description, recommendation))
     return table
+
+
+def _span(scene: Scene, grid: list[dict], seconds: float) -> float:
+    """How long the reference runs: as long as the longest variant, ceil(seconds / dt) of
+    its steps."""
+    scene_dt = scene.world.get("dt", DEFAULT_DT)
+    return max(
+        math.ceil(seconds / s.get("dt", scene_dt) - 1e-9) * s.get("dt", scene_dt) for s in grid
+    )
+
+
+def _description(variants: int, seeds: int, seconds: float, base: dict, amount: float) -> str:
+    """What was run, in a sentence for the page."""
+    reference = ", ".join(
+        f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in base.items()
+    )
+    perturbed = (
+        f"; seeds 1.. perturbed by {amount:g} of each body's size and in radians"
+        if seeds > 1
+        else ""
+    )
+    runs = f"{variants} variants x {seeds} seed(s), {seconds:g} s each"
+    return f"{runs}; reference: {reference}{perturbed}"
