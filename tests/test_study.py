@@ -331,6 +331,34 @@ def test_a_killed_worker_loses_no_run(in_process, tmp_path):
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="kills processes by signal")
+def test_a_lost_dask_worker_loses_no_run(tmp_path):
+    """A Dask worker killed mid-study (a lost node): the scheduler gives its runs to the
+    other worker (and to the one its nanny starts again), and the table is whole."""
+    distributed = pytest.importorskip("dask.distributed")
+    killed = []
+    slow = {**STUDY, "vary": {**STUDY["vary"], "dt": [1 / 2000, 1 / 4000]}}
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        workers = _workers()  # the cluster's worker processes, started by its nannies
+
+        def kill_a_worker():
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and not killed:
+                if list((tmp_path / "runs").glob("[!.]*.json")):
+                    workers[0].kill()
+                    killed.append(workers[0].pid)
+                time.sleep(0.05)
+
+        watcher = threading.Thread(target=kill_a_worker)
+        watcher.start()
+        table = rbd.study(top_scene(1.0), scheduler=cluster.scheduler_address, out=tmp_path, **slow)
+        watcher.join()
+    assert len(workers) == 2 and killed, "no worker was killed: the test did not test anything"
+    _same_tables(table, rbd.study(top_scene(1.0), workers=1, **slow))
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="kills processes by signal")
 def test_an_interrupted_study_resumes_where_it_stopped(in_process, tmp_path):
     scene_file = tmp_path / "top.toml"
     scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
