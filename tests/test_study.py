@@ -281,7 +281,7 @@ def test_two_local_workers_and_a_dask_cluster_make_the_same_table(in_process, tm
     _same_tables(local, in_process)
     assert set(local["workers"]) == {2}
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         on_dask = rbd.study(top_scene(1.0), scheduler=cluster.scheduler_address, **STUDY)
         # a scene whose runs differ in their last bits with the number of BLAS threads (Dask
@@ -338,7 +338,7 @@ def test_a_lost_dask_worker_loses_no_run(tmp_path):
     killed = []
     slow = {**STUDY, "vary": {**STUDY["vary"], "dt": [1 / 2000, 1 / 4000]}}
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         workers = _workers()  # the cluster's worker processes, started by its nannies
 

@@ -82,7 +82,7 @@ def run(params: dict) -> dict:
         from dask.distributed import LocalCluster
 
         with LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
         ) as cluster:
             start = time.perf_counter()
             table = rbd.study(params["scene"], scheduler=cluster.scheduler_address, **arguments)
