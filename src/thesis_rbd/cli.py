@@ -591,7 +591,9 @@ def study(
         except (StudyError, ImportError) as exc:
             raise InputError(str(exc)) from None
         except KeyboardInterrupt:
-            done = len(list((out / "runs").glob("[!.]*.json")))
+            from thesis_rbd.studies.folder import recorded_runs
+
+            done = recorded_runs(out)
             typer.echo(
                 f"thesis-rbd: interrupted; {done} runs are recorded in {out}: the same command "
                 "runs the rest",

@@ -100,6 +100,7 @@ from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.world import World
 
 __all__ = [
+    "WORLD_KEYS",
     "BodySpec",
     "ForceSpec",
     "JointSpec",
@@ -497,7 +498,8 @@ def parse_scene(text: str, name: str, source: str, folder: Path) -> Scene:
 
 
 # ---------------------------------------------------------------------- tables
-_WORLD_KEYS = (
+# the keys of a [world] table: World's keyword arguments
+WORLD_KEYS = (
     "dt",
     "gravity",
     "integrator",
@@ -538,7 +540,7 @@ def _parse_world(table: dict, where: _Context) -> dict:
     for key in _REMOVED_WORLD_KEYS:
         if key in table:
             where.field(key).fail(_REMOVED_WORLD_KEYS[key])
-    _check_keys(table, _WORLD_KEYS, where)
+    _check_keys(table, WORLD_KEYS, where)
     world = {}
     if "dt" in table:
         world["dt"] = _positive_number(table["dt"], where.field("dt"))

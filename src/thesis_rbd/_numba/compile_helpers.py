@@ -17,23 +17,19 @@ and when it ends, helpers still at work are stopped (what they finished stays ca
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 
+from thesis_rbd._cores import usable_cores
 from thesis_rbd._numba.compile_plan import PlannedCompile, load_plan
 from thesis_rbd._numba.kernel_lock import kernel_lock
 
-__all__ = ["CompileHelpers", "compile_planned", "spare_cores"]
+__all__ = ["CompileHelpers", "compile_ahead", "compile_planned", "spare_cores"]
 
 
 def spare_cores() -> int:
     """Cores this process may use, less the one it runs on."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        cores = os.cpu_count() or 1
-    return max(cores - 1, 0)
+    return max(usable_cores() - 1, 0)
 
 
 def _is_cached(entry: PlannedCompile) -> bool:
@@ -73,6 +69,19 @@ def compile_planned(entries: list[PlannedCompile]) -> int:
     return done
 
 
+def compile_ahead(scenes: list[str] | None) -> bool:
+    """Compile (or load) the named scenes' planned kernels, taking turns with any other
+    process doing the same, unless the cache already holds them. Returns whether it did.
+
+    The plan's last kernel is the outermost the scenes compile: cached, they are warm.
+    """
+    entries = load_plan().for_scenes(scenes)
+    if not entries or _is_cached(entries[-1]):
+        return False
+    compile_planned(entries)
+    return True
+
+
 class CompileHelpers:
     """On entry, if the cache lacks the scenes' kernels: start helpers and compile the plan
     with them; on exit, stop helpers still at work.
@@ -109,9 +118,8 @@ class CompileHelpers:
     def start(self) -> None:
         """Compile the scenes' plan with the helpers, if the cache lacks it."""
         entries = load_plan().for_scenes(self.scenes)
-        # the plan's last kernel is the outermost the scenes compile: cached, they are warm
         if self.helpers == 0 or not entries or _is_cached(entries[-1]):
-            return
+            return  # no helpers wanted, or the scenes are warm (see compile_ahead)
         scenes = [] if self.scenes is None else ["--scene", *self.scenes]
         for _ in range(self.helpers):
             self._processes.append(

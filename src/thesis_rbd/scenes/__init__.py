@@ -16,7 +16,7 @@ from pathlib import Path
 
 from thesis_rbd.scene import Scene, SceneError, load_scene, parse_scene, urdf_scene
 
-__all__ = ["DEFAULT", "get", "names", "resolve"]
+__all__ = ["DEFAULT", "get", "is_builtin", "names", "resolve"]
 
 DEFAULT = "dzhanibekov"
 """The scene ``thesis-rbd run`` runs when given none."""
@@ -29,6 +29,16 @@ def _files() -> dict[str, resources.abc.Traversable]:
         for entry in folder.iterdir()
         if entry.is_file() and entry.name.endswith(".toml")
     }
+
+
+def _source(name: str) -> str:
+    return f"built-in scene {name!r}"
+
+
+def is_builtin(scene: Scene) -> bool:
+    """Whether ``scene`` is a built-in scene (or one of its ``with_world`` copies), not a
+    file that happens to share a built-in's name."""
+    return scene.name in _files() and scene.source == _source(scene.name)
 
 
 def names() -> list[str]:
@@ -57,7 +67,7 @@ def get(name: str) -> Scene:
         return parse_scene(
             entry.read_text(encoding="utf-8"),
             name=name,
-            source=f"built-in scene {name!r}",
+            source=_source(name),
             folder=Path(path).parent,
         )
 

@@ -24,7 +24,13 @@ from thesis_rbd._atomic import atomic_path
 from thesis_rbd.studies.grid import StudyError
 from thesis_rbd.studies.sampling import RunSamples
 
-__all__ = ["StudyFolder"]
+__all__ = ["StudyFolder", "recorded_runs"]
+
+
+def recorded_runs(root) -> int:
+    """How many runs the study folder ``root`` holds a record of (0 for no folder)."""
+    # a record's temporary name starts with a dot (``_atomic``): only whole records count
+    return len(list(Path(root).glob("runs/[!.]*.json")))
 
 
 class StudyFolder:

@@ -11,14 +11,13 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
 
-from thesis_rbd.scene import Scene, SceneError
+from thesis_rbd.scene import WORLD_KEYS, Scene, SceneError
 
 __all__ = [
     "VARIABLE_SETTINGS",
@@ -32,22 +31,7 @@ __all__ = [
 ]
 
 # Every [world] key but gravity, a vector that is a property of the scene, not of its solver.
-VARIABLE_SETTINGS = (
-    "dt",
-    "integrator",
-    "contact_solver",
-    "contact_iterations",
-    "contact_tolerance",
-    "friction_sides",
-    "penetration",
-    "narrow_phase",
-    "sleeping",
-    "joint_substeps",
-    "contact_response",
-    "linear_drag",
-    "quadratic_drag",
-    "angular_drag",
-)
+VARIABLE_SETTINGS = tuple(key for key in WORLD_KEYS if key != "gravity")
 
 
 class StudyError(ValueError):
@@ -196,14 +180,3 @@ class Variant:
         the name of its record, so a resumed study finds what it already ran."""
         text = json.dumps([study_key, self.settings, self.seed], separators=(",", ":"))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
-
-    @property
-    def label(self) -> str:
-        """The settings in a line (``dt=0.00417, integrator=rk4``)."""
-        return ", ".join(f"{name}={_short(value)}" for name, value in self.settings)
-
-
-def _short(value) -> str:
-    if isinstance(value, float) and math.isfinite(value):
-        return f"{value:.3g}"
-    return str(value)

@@ -13,7 +13,7 @@ import math
 from string import Template
 
 from thesis_rbd.studies.measures import UNITS
-from thesis_rbd.studies.table import Recommendation, StudyTable
+from thesis_rbd.studies.table import Recommendation, StudyTable, format_value
 
 __all__ = ["PLOTTED", "accuracy_figure", "study_page"]
 
@@ -43,9 +43,7 @@ $variants
 
 
 def _number(value, digits: int = 3) -> str:
-    if isinstance(value, float):
-        return "" if math.isnan(value) else f"{value:.{digits}g}"
-    return html.escape(str(value))
+    return html.escape(format_value(value, digits))
 
 
 def accuracy_figure(table: StudyTable):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from thesis_rbd.studies.executor import usable_cores
+from thesis_rbd._cores import usable_cores
 from thesis_rbd.studies.grid import StudyError, Variant
 from thesis_rbd.studies.measures import MEASURES, run_errors, seed_spread
 from thesis_rbd.studies.table import StudyTable

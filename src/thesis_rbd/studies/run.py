@@ -15,9 +15,11 @@ import pickle
 import platform
 from collections.abc import Callable, Mapping
 
+from thesis_rbd._cores import usable_cores
+from thesis_rbd._validate import as_positive_scalar
 from thesis_rbd.dynamics.contact_settings import ContactSettings
 from thesis_rbd.scene import Scene, SceneError
-from thesis_rbd.studies.executor import cluster_workers, run_tasks, usable_cores
+from thesis_rbd.studies.executor import cluster_workers, run_tasks
 from thesis_rbd.studies.folder import StudyFolder
 from thesis_rbd.studies.grid import StudyError, Variant, check_settings, variant_grid
 from thesis_rbd.studies.page import study_page
@@ -59,19 +61,16 @@ _COMPILED_AHEAD: set[str] = set()
 
 
 def _compile_ahead(scene: Scene) -> None:
-    """In a worker's first run of a built-in scene, compile (or load) the scene's planned
-    kernels, taking turns with the other workers (:mod:`thesis_rbd._numba.compile_helpers`):
-    on a cold cache the workers share the compiling instead of waiting for one another."""
+    """In a worker's first run of a built-in scene on a cold cache, compile the scene's
+    planned kernels, taking turns with the other workers
+    (:func:`thesis_rbd._numba.compile_helpers.compile_ahead`): they share the compiling
+    instead of waiting for one another."""
     from thesis_rbd import scenes
+    from thesis_rbd._numba.compile_helpers import compile_ahead
 
-    if scene.name in _COMPILED_AHEAD or scene.source != f"built-in scene {scene.name!r}":
-        return
-    from thesis_rbd._numba.compile_helpers import compile_planned
-    from thesis_rbd._numba.compile_plan import load_plan
-
-    if scene.name in scenes.names():
-        compile_planned(load_plan().for_scenes([scene.name]))
-    _COMPILED_AHEAD.add(scene.name)
+    if scene.name not in _COMPILED_AHEAD and scenes.is_builtin(scene):
+        compile_ahead([scene.name])
+        _COMPILED_AHEAD.add(scene.name)
 
 
 def run_task(scene: Scene, settings: dict, seconds: float, seed: int, amount: float) -> dict:
@@ -120,11 +119,10 @@ def _checked_count(value, name: str) -> int:
 
 
 def _checked_positive(value, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise StudyError(f"{name} must be a positive number, got {value!r}")
-    if not (math.isfinite(value) and value > 0):
-        raise StudyError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
+    try:
+        return as_positive_scalar(value, name)
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
 
 
 def study(

@@ -16,7 +16,14 @@ import numpy as np
 
 from thesis_rbd.studies.measures import MEASURES, UNITS
 
-__all__ = ["TIMING_COLUMNS", "Recommendation", "StudyTable", "checked_thresholds", "measure_name"]
+__all__ = [
+    "TIMING_COLUMNS",
+    "Recommendation",
+    "StudyTable",
+    "checked_thresholds",
+    "format_value",
+    "measure_name",
+]
 
 # Columns that depend on the machine and the workers beside the run, not on the simulation:
 # the rest of the table is the same whoever ran it.
@@ -205,7 +212,7 @@ class StudyTable:
         if not passing:
             return Recommendation(None, math.nan, f"no variant is within {limits}")
         best = min(passing, key=lambda v: v["wall_per_second"])
-        settings = ", ".join(f"{k}={_value(v)}" for k, v in best["settings"].items())
+        settings = ", ".join(f"{k}={format_value(v)}" for k, v in best["settings"].items())
         return Recommendation(
             best["settings"],
             best["wall_per_second"],
@@ -220,5 +227,8 @@ def _csv_value(value):
     return value
 
 
-def _value(value) -> str:
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
+def format_value(value, digits: int = 4) -> str:
+    """A setting's or a measure's value in a few digits (a name as it is; NaN as "")."""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else f"{value:.{digits}g}"
+    return str(value)

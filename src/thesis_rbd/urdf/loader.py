@@ -16,8 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array, as_unit_quaternion
-from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.urdf.collision_shapes import bullet_extensions, collision_meshes, visual_meshes
 from thesis_rbd.urdf.link_mass import combine, link_mass
 from thesis_rbd.urdf.plan import (
@@ -27,6 +25,7 @@ from thesis_rbd.urdf.plan import (
     build,
     check_joint_reach,
     hinge_limits,
+    model_source,
 )
 from thesis_rbd.urdf.robot import Robot, limit_or_inf
 
@@ -121,13 +120,7 @@ def load_urdf(
             "load_urdf reads URDF files through yourdfpy, which is not installed: "
             "pip install thesis_rbd[urdf]"
         ) from exc
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no URDF file at {path}")
-    base = transform_from_pose(
-        as_finite_array(base_position, "base_position", shape=(3,)),
-        as_unit_quaternion(base_orientation, "base_orientation"),
-    )
+    path, base = model_source(path, "URDF", base_position, base_orientation)
     if inertia not in ("file", "shapes"):
         raise ValueError(f"inertia must be 'file' or 'shapes', got {inertia!r}")
     try:

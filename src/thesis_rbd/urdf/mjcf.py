@@ -40,11 +40,9 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.geometry import TriangleMesh, shapes
 from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.urdf.collision_shapes import (
@@ -61,6 +59,7 @@ from thesis_rbd.urdf.plan import (
     build,
     check_joint_reach,
     hinge_limits,
+    model_source,
 )
 from thesis_rbd.urdf.robot import Robot
 
@@ -141,13 +140,7 @@ def load_mjcf(
             "load_mjcf compiles MJCF files with the mujoco package, which is not installed: "
             "pip install mujoco"
         ) from exc
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no MJCF file at {path}")
-    base = transform_from_pose(
-        as_finite_array(base_position, "base_position", shape=(3,)),
-        as_unit_quaternion(base_orientation, "base_orientation"),
-    )
+    path, base = model_source(path, "MJCF", base_position, base_orientation)
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except Exception as exc:  # the compiler raises ValueError and its own kinds

@@ -7,9 +7,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from itertools import combinations
+from pathlib import Path
 
 import numpy as np
 
+from thesis_rbd._validate import as_finite_array, as_unit_quaternion
 from thesis_rbd.dynamics.body_builder import body_fields, body_shape
 from thesis_rbd.dynamics.joint_set import check_reach
 from thesis_rbd.geometry import shapes
@@ -18,8 +20,15 @@ from thesis_rbd.spatial.transform import transform_from_pose
 from thesis_rbd.urdf.link_mass import LinkMass
 from thesis_rbd.urdf.robot import Robot
 
-__all__ = ["ModelPlan", "PlannedJoint", "body_arguments", "build", "check_joint_reach",
-           "hinge_limits"]  # fmt: skip
+__all__ = [
+    "ModelPlan",
+    "PlannedJoint",
+    "body_arguments",
+    "build",
+    "check_joint_reach",
+    "hinge_limits",
+    "model_source",
+]  # fmt: skip
 
 # density of the marker cube that stands for a link without collision geometry
 _MARKER_DENSITY = 1000.0
@@ -58,6 +67,25 @@ class ModelPlan:
     tree_pairs: list[tuple[int, int]]
     mimics: dict[str, tuple[str, float, float]]
     scenery: list[int] = field(default_factory=list)
+
+
+def model_source(path, kind: str, base_position, base_orientation) -> tuple[Path, np.ndarray]:
+    """A model file's path and the (4, 4) pose its frame takes in the world, both checked.
+
+    Raises
+    ------
+    ValueError
+        If there is no file at ``path`` (naming ``kind``, "URDF" or "MJCF"), or the base
+        position or orientation is not finite or not a rotation.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no {kind} file at {path}")
+    base = transform_from_pose(
+        as_finite_array(base_position, "base_position", shape=(3,)),
+        as_unit_quaternion(base_orientation, "base_orientation"),
+    )
+    return path, base
 
 
 def body_arguments(
