@@ -172,6 +172,12 @@ def hull_distance(Pa, La, Pb, Lb, M, t):
         for k in range(n):
             repeated |= ia[k] == va and ib[k] == vb
         if repeated or v2 - vw <= 1e-14 * v2:
+            if n == 0:
+                # the first support already meets v (the starting vertices are the closest):
+                # that vertex pair is the closest feature
+                ia[0] = va
+                ib[0] = vb
+                n = 1
             break
         P[n, 0], P[n, 1], P[n, 2] = wx, wy, wz
         ia[n] = va
