@@ -292,7 +292,7 @@ class Scene:
         Keyword arguments of :class:`World`: dt, gravity, integrator, linear_drag,
         quadratic_drag, angular_drag, and the contact settings contact_response,
         contact_solver, contact_iterations, friction_sides, contact_tolerance, penetration,
-        sleeping, narrow_phase, and joint_substeps.
+        sleeping, narrow_phase, joint_substeps and joint_coordinates.
     bodies : tuple of BodySpec
         In world index order.
     joints : tuple of JointSpec
@@ -515,6 +515,7 @@ WORLD_KEYS = (
     "sleeping",
     "narrow_phase",
     "joint_substeps",
+    "joint_coordinates",
 )
 # keys of earlier versions, refused with the reason
 _REMOVED_WORLD_KEYS = {
@@ -533,6 +534,7 @@ _CONTACT_CHECKS = {
     "sleeping": lambda v, w: _as_bool(v, w),
     "narrow_phase": lambda v, w: _as_string(v, w),
     "joint_substeps": lambda v, w: v if v == "auto" else _integer(v, w),
+    "joint_coordinates": lambda v, w: _as_string(v, w),
 }
 
 

@@ -69,7 +69,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from thesis_rbd._validate import as_finite_array
-from thesis_rbd.dynamics.joint_tree import elimination_order, later_neighbours
+from thesis_rbd.dynamics.joint_tree import elimination_order, fixed_base_trees, later_neighbours
 from thesis_rbd.spatial.quaternion import quat_conjugate, quat_multiply, quat_rotate
 
 __all__ = ["FREE_LENGTH", "JOINT_KINDS", "KIND_NAMES", "JointSet", "check_reach"]
@@ -110,6 +110,9 @@ _AXIS_KINDS = ("revolute", "prismatic")
 # Kinds whose position (a hinge's angle, a slider's travel, a distance joint's length)
 # limits bound.
 _LIMITED_KINDS = ("revolute", "prismatic", "distance", "spherical")
+# Kinds a fixed-base tree stepped in joint coordinates may hold (``articulated``): one
+# coordinate each, or none.
+_ARTICULATED_CODES = [JOINT_KINDS[k] for k in ("revolute", "prismatic", "fixed")]
 # Kinds whose frame is three axes: each of their six motions is free, locked or limited.
 _FRAME_KINDS = ("universal", "generic")
 # The six axes of a universal or generic joint, as errors name them.
@@ -578,6 +581,9 @@ class JointSet:
             Whether island i is a tree (solved by ``joint_tree``) or has a closed loop.
         neighbour_start, neighbour : (m + 1,), (p,) int64
             ``joint_tree.later_neighbours`` of each joint slot.
+        fixed_base, parents, sides : (k,) bool, (m,), (m,) int64
+            The islands ``articulated`` may step in joint coordinates, and each joint's
+            parent and child there (``joint_tree.fixed_base_trees``).
         """
         n = len(static)
         a, b = self.ints[:, BODY_A], self.ints[:, BODY_B]
@@ -599,9 +605,13 @@ class JointSet:
         body_island = np.searchsorted(islands, label[bodies])
         body_start, island_bodies = _grouped(body_island, count, bodies)
         neighbour_start, neighbour = later_neighbours(a, b, static, order, joint_start)
+        articulable = np.isin(self.ints[:, KIND], _ARTICULATED_CODES)
+        fixed_base, parents, sides = fixed_base_trees(
+            a, b, static, order, joint_start, tree, articulable
+        )
         return (
             joint_start.astype(np.int64), order.astype(np.int64), body_start, island_bodies,
-            tree, neighbour_start, neighbour,
+            tree, neighbour_start, neighbour, fixed_base, parents, sides,
         )  # fmt: skip
 
     def moving_links(self, moving: np.ndarray) -> np.ndarray:

@@ -39,6 +39,7 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd.dynamics.articulated import step_articulated
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_motors import drive_joints
@@ -79,11 +80,11 @@ _TOLERANCE = 1e-10
 @njit
 def step_jointed_bodies(
     substeps, dt, count, frozen, solved, ints, floats, joint_start, island_joints, body_start,
-    island_bodies, island_tree, neighbour_start, neighbour, substep_position,
-    substep_orientation, position, orientation, linear_momentum, angular_momentum,
-    inverse_mass, inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
-    save_start, start_position, start_orientation, impulse, kinematic_velocity,
-    kinematic_angular_velocity,
+    island_bodies, island_tree, neighbour_start, neighbour, fixed_base, parents, sides,
+    substep_position, substep_orientation, position, orientation, linear_momentum,
+    angular_momentum, inverse_mass, inverse_inertia_body, inertia_body, external_force, drag,
+    pf_start, pf_arm, pf_force, save_start, start_position, start_orientation, impulse,
+    kinematic_velocity, kinematic_angular_velocity,
 ):  # fmt: skip
     """Move the jointed bodies over the step, island by island (module docstring), in place.
 
@@ -99,6 +100,9 @@ def step_jointed_bodies(
     joint_start, island_joints, body_start, island_bodies, island_tree, neighbour_start, neighbour
         The joints and moving bodies of each island, and how its Newton matrix is solved
         (``JointSet.islands``).
+    fixed_base, parents, sides : (k,) bool, (m,), (m,) int64
+        The islands that may be stepped in joint coordinates (``articulated``), and each
+        joint slot's parent and child there (``JointSet.islands``).
     substep_position, substep_orientation : (>= n, 3), (>= n, 4) float64
         Scratch: where each jointed body began the substep.
     save_start, start_position, start_orientation
@@ -123,9 +127,6 @@ def step_jointed_bodies(
         bodies = island_bodies[body_start[island] : body_start[island + 1]]
         if frozen[bodies[0]]:
             continue  # asleep: islands sleep whole
-        parts = substeps
-        if substeps == 0:
-            parts = auto_substeps(dt, joints, ints, floats, inverse_mass, impulse)
         for i in bodies:
             if save_start:
                 for k in range(3):
@@ -133,11 +134,33 @@ def step_jointed_bodies(
                 for k in range(4):
                     start_orientation[i, k] = orientation[i, k]
         first, last = joint_start[island], joint_start[island + 1]
+        saved = _island_state(bodies, position, orientation, linear_momentum, angular_momentum)
+        if fixed_base[island]:
+            for j in joints:
+                impulse[j, :] = 0.0
+            if step_articulated(
+                max(substeps, 1), dt, joints, parents[first:last], sides[first:last], ints,
+                floats, solved, position, orientation, linear_momentum, angular_momentum,
+                inverse_mass, inverse_inertia_body, inertia_body, external_force, drag,
+                pf_start, pf_arm, pf_force, impulse, kinematic_velocity,
+                kinematic_angular_velocity,
+            ):  # fmt: skip
+                bad = _first_non_finite(bodies, position, orientation, linear_momentum,
+                                        angular_momentum)  # fmt: skip
+                if bad >= 0:
+                    return bad
+                continue
+            # something only the maximal path holds acts this step (a contact, a motor, a
+            # limit): the island's step from where it began
+            _restore_island(bodies, saved, position, orientation, linear_momentum,
+                            angular_momentum)  # fmt: skip
+        parts = substeps
+        if substeps == 0:
+            parts = auto_substeps(dt, joints, ints, floats, inverse_mass, impulse)
         tree = island_tree[island]
         scratch = newton_scratch(
             joints, bodies, ints, floats, neighbour_start[first : last + 1], neighbour, tree
         )
-        saved = _island_state(bodies, position, orientation, linear_momentum, angular_momentum)
         partners, ends = joint_partners(joints, ints, frozen, position, orientation)
         while True:
             for j in joints:
@@ -156,12 +179,21 @@ def step_jointed_bodies(
             # its start): the island's step again, in twice as many
             _restore_island(bodies, saved, position, orientation, linear_momentum, angular_momentum)
             parts = min(2 * parts, MOST_SUBSTEPS)
-        for i in bodies:
-            if not math.isfinite(
-                position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
-                + linear_momentum[i, 0] + angular_momentum[i, 0]
-            ):  # fmt: skip
-                return i
+        bad = _first_non_finite(bodies, position, orientation, linear_momentum, angular_momentum)
+        if bad >= 0:
+            return bad
+    return -1
+
+
+@njit(allocates=False)
+def _first_non_finite(bodies, position, orientation, linear_momentum, angular_momentum):
+    """The first of ``bodies`` whose state is not finite, or -1."""
+    for i in bodies:
+        if not math.isfinite(
+            position[i, 0] + position[i, 1] + position[i, 2] + orientation[i, 3]
+            + linear_momentum[i, 0] + angular_momentum[i, 0]
+        ):  # fmt: skip
+            return i
     return -1
 
 

@@ -31,6 +31,7 @@ from thesis_rbd._numba.jit import njit
 __all__ = [
     "elimination_order",
     "factor_tree",
+    "fixed_base_trees",
     "later_neighbours",
     "left_solve",
     "lu_in_place",
@@ -85,6 +86,62 @@ def elimination_order(a, b, static, joint_island, island_count):
     bodies = np.bincount(moving_island[first_seen], minlength=island_count)
     tree = joints == bodies + grounded - 1
     return depth, tree
+
+
+def fixed_base_trees(a, b, static, island_joints, joint_start, tree, articulable):
+    """Which islands hang from the ground as a tree of joints ``articulable`` marks (the kinds
+    ``articulated`` steps in joint coordinates), and each joint's place in its tree.
+
+    Parameters
+    ----------
+    a, b : (m,) int64
+        Each joint's bodies (b = -1: the world).
+    static : (n,) bool
+    island_joints, joint_start : (m,), (k + 1,) int64
+        The islands' joints in elimination order (``elimination_order``: deepest first).
+    tree : (k,) bool
+        Whether each island is a tree.
+    articulable : (m,) bool
+
+    Returns
+    -------
+    fixed_base : (k,) bool
+        Islands that are trees of articulable joints rooted at the ground (the world or a
+        static body) by one of them.
+    parents : (m,) int64
+        For each joint slot, its parent joint's position within its island (-1: the joint
+        to the ground, and for every joint of an island that is not a fixed-base tree).
+    sides : (m,) int64
+        Which of its bodies is the child, farther from the ground: 0 for a, 1 for b.
+    """
+    ground = len(static)
+    node_a = np.where(static[a], ground, a)
+    node_b = np.where((b < 0) | static[np.maximum(b, 0)], ground, b)
+    parents = np.full(len(island_joints), -1, np.int64)
+    sides = np.zeros(len(island_joints), np.int64)
+    fixed_base = np.zeros(len(joint_start) - 1, bool)
+    for island in np.flatnonzero(tree):
+        first, last = joint_start[island], joint_start[island + 1]
+        slots = island_joints[first:last]
+        if not articulable[slots].all():
+            continue
+        # from the ground out (the reverse of elimination order): each joint's parent body is
+        # the ground or a body an earlier joint reached
+        reached = {ground: -1}
+        for position in range(last - first - 1, -1, -1):
+            j = slots[position]
+            if node_b[j] in reached and node_a[j] not in reached:
+                child, parent, side = node_a[j], node_b[j], 0
+            elif node_a[j] in reached and node_b[j] not in reached:
+                child, parent, side = node_b[j], node_a[j], 1
+            else:  # a floating island's root joint: neither body is the ground
+                break
+            parents[first + position] = reached[parent]
+            sides[first + position] = side
+            reached[child] = position
+        else:
+            fixed_base[island] = True
+    return fixed_base, parents, sides
 
 
 def later_neighbours(a, b, static, island_joints, joint_start):

@@ -131,8 +131,8 @@ def run_steps(
         ``JointSet``'s (ints, floats), None without joints); None without a contact response.
     joint_group : tuple or None
         ``(substeps, ints, floats, joint_start, island_joints, body_start, island_bodies,
-        island_tree, neighbour_start, neighbour, jointed, unintegrated, substep_position,
-        substep_orientation, impulse)`` of the joints stage
+        island_tree, neighbour_start, neighbour, fixed_base, parents, sides, jointed,
+        unintegrated, substep_position, substep_orientation, impulse)`` of the joints stage
         (``World._joint_arguments``); None without joints. The integrator then skips the
         bodies ``unintegrated`` (>= n,) bool marks, the frozen and the jointed, which the
         joints stage moves.
@@ -201,8 +201,9 @@ def run_steps(
     if joint_group is not None:
         (
             joint_substeps, joint_ints, joint_floats, joint_start, island_joints, body_start,
-            island_bodies, island_tree, neighbour_start, neighbour, jointed, unintegrated,
-            substep_position, substep_orientation, joint_impulse,
+            island_bodies, island_tree, neighbour_start, neighbour, fixed_base, tree_parents,
+            tree_sides, jointed, unintegrated, substep_position, substep_orientation,
+            joint_impulse,
         ) = joint_group  # fmt: skip
     while done < steps:
         start = cycle_count()
@@ -268,9 +269,10 @@ def run_steps(
             bad = step_jointed_bodies(
                 joint_substeps, dt, count, frozen, solved, joint_ints, joint_floats, joint_start,
                 island_joints, body_start, island_bodies, island_tree, neighbour_start, neighbour,
-                substep_position, substep_orientation, position,
-                orientation, linear_momentum, angular_momentum, inverse_mass,
-                inverse_inertia_body, external_force, drag, pf_start, pf_arm, pf_force,
+                fixed_base, tree_parents, tree_sides, substep_position, substep_orientation,
+                position, orientation, linear_momentum, angular_momentum, inverse_mass,
+                inverse_inertia_body, inertia_body, external_force, drag, pf_start, pf_arm,
+                pf_force,
                 detection_group is not None, start_position, start_orientation, joint_impulse,
                 kinematic_velocity, kinematic_angular_velocity,
             )  # fmt: skip

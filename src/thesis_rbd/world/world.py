@@ -99,6 +99,9 @@ MAX_DT = 1e4
 # momenta they give, and 1e150 squared stays finite with room for sums.
 MOST_FORCE = 1e150
 
+# How jointed bodies may be stepped (``World``'s ``joint_coordinates``).
+JOINT_COORDINATES = ("auto", "maximal")
+
 # Rounds of collisions the impact stage resolves in one step: a body carried on after its
 # collision may run into another within the step, and that one into a third.
 IMPACT_ROUNDS = 8
@@ -197,6 +200,12 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         Equal parts each step of the jointed bodies is taken in (``dynamics.joint_solver``):
         light links carrying a heavy load need more than one. "auto" chooses for each island
         and step from the tension its lightest, shortest links carried over the last step.
+    joint_coordinates : {"auto", "maximal"}
+        "auto": a tree of hinges, sliders and welds hanging from the ground is stepped in
+        its joint coordinates (``dynamics.articulated``, the articulated-body algorithm) on
+        every step where only forces, set torques and joint damping act on it, and held in
+        maximal coordinates (``dynamics.joint_solver``) on the others; "maximal": every
+        jointed body always in maximal coordinates.
     """
 
     def __init__(
@@ -216,6 +225,7 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         sleeping: bool = True,
         narrow_phase: str = "auto",
         joint_substeps: int | str = "auto",
+        joint_coordinates: str = "auto",
     ):
         self.dt = as_positive_scalar(dt, "dt")
         if self.dt > MAX_DT:
@@ -227,6 +237,12 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
             )
         self.integrator = integrator
         self.joint_substeps = _checked_substeps(joint_substeps)
+        if joint_coordinates not in JOINT_COORDINATES:
+            raise ValueError(
+                f"unknown joint_coordinates {joint_coordinates!r}; choose one of "
+                f"{list(JOINT_COORDINATES)}"
+            )
+        self.joint_coordinates = joint_coordinates
         self.drag = DragCoefficients(linear_drag, quadratic_drag, angular_drag)
         self._drag_array = np.array([linear_drag, quadratic_drag, angular_drag], dtype=np.float64)
         self.time = 0.0
@@ -484,14 +500,16 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
     def _joint_arguments(self) -> tuple:
         """What the step kernel's joint stages take (``run_steps``'s ``joint_group``)."""
         joints, b = self._joints, self.bodies
-        islands = joints.islands(b.static)
+        *islands, fixed_base, parents, sides = joints.islands(b.static)
+        if self.joint_coordinates == "maximal":
+            fixed_base = np.zeros_like(fixed_base)
         self._joint_impulse = np.zeros((len(joints), 7))
         rows = len(b.full("inverse_mass"))
         jointed = np.zeros(rows, bool)
         jointed[: b.count] = joints.jointed(b.count)
         return (
             0 if self.joint_substeps == "auto" else self.joint_substeps, joints.ints,
-            joints.floats, *islands, jointed, np.zeros(rows, bool), np.zeros((rows, 3)),
+            joints.floats, *islands, fixed_base, parents, sides, jointed, np.zeros(rows, bool), np.zeros((rows, 3)),
             np.zeros((rows, 4)), self._joint_impulse,
         )  # fmt: skip
 
