@@ -22,8 +22,9 @@ LOCKED3 = ("locked",) * 3
 
 
 def _pendulum(kind, seconds=2.0, **joint):
-    """A 1 kg box hung off-centre from the world by a joint, thrown spinning."""
-    world = rbd.World(dt=DT, gravity=(0.0, 0.0, -9.81))
+    """A 1 kg box hung off-centre from the world by a joint, thrown spinning (in maximal
+    coordinates, where a joint and the generic joint spelling it write their rows)."""
+    world = rbd.World(dt=DT, gravity=(0.0, 0.0, -9.81), joint_coordinates="maximal")
     body = world.add_body(
         rbd.shapes.box((0.1, 0.1, 1.0)), mass=1.0, position=(0.3, 0.2, -0.5),
         angular_velocity=(0.5, 1.0, 2.0), linear_velocity=(0.3, 0.1, 0.0),

@@ -5,7 +5,8 @@ damping (0.5 N m s/rad), no control (issue 35's speed case).
 Each engine at its defaults, changed only where written:
 
 * ours: ``load_urdf(fixed_base=True)``, the links kept from colliding with each other
-  (``self_collision=False``, pybullet's default), joint substeps "auto";
+  (``self_collision=False``, pybullet's default), joint substeps "auto", the arm stepped in
+  joint coordinates (``joint_coordinates="auto"``) or held in maximal ones ("maximal");
 * pybullet: ``URDF_USE_INERTIA_FROM_FILE``, its links' own damping zeroed (``changeDynamics``;
   it damps links by default, the URDF damps joints), its default joint motors off
   (VELOCITY_CONTROL with force 0), so its joints are damped by the URDF's 0.5 alone;
@@ -37,21 +38,23 @@ def iiwa_path() -> Path:
     return Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
 
 
-def iiwa_ours(steps: int = 1):
+def iiwa_ours(steps: int = 1, coordinates: str = "auto"):
     import thesis_rbd as rbd
 
-    world = rbd.World(dt=DT, gravity=(0, 0, -9.81))
+    world = rbd.World(dt=DT, gravity=(0, 0, -9.81), joint_coordinates=coordinates)
     robot = rbd.load_urdf(world, iiwa_path(), fixed_base=True)
     robot.set_joint_positions(START)
     return (lambda: world.step(steps)), robot.joint_positions
 
 
-def iiwa_pybullet():
+def iiwa_pybullet(substeps: int = 1):
+    """pybullet's arm; ``step()`` advances dt in ``substeps`` steps of its own (the reference
+    at dt / 16 is pybullet's own discretisation converged)."""
     import pybullet as p
 
     client = p.connect(p.DIRECT)
     p.setGravity(0, 0, -9.81, physicsClientId=client)
-    p.setTimeStep(DT, physicsClientId=client)
+    p.setTimeStep(DT / substeps, physicsClientId=client)
     arm = p.loadURDF(str(iiwa_path()), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
                      physicsClientId=client)  # fmt: skip
     for j in range(len(START)):
@@ -63,7 +66,11 @@ def iiwa_pybullet():
         states = p.getJointStates(arm, range(len(START)), physicsClientId=client)
         return np.array([state[0] for state in states])
 
-    return (lambda: p.stepSimulation(physicsClientId=client)), positions
+    def step():
+        for _ in range(substeps):
+            p.stepSimulation(physicsClientId=client)
+
+    return (step if substeps > 1 else lambda: p.stepSimulation(physicsClientId=client)), positions
 
 
 def iiwa_mujoco():

@@ -8,11 +8,17 @@ the engines in a different order each round, timing each step as the user's loop
 
 * ``ours``: ``World.step()`` once per step, from Python;
 * ``ours_batched``: ``World.step(24)`` per call (one kernel call for 24 steps), per step;
+* ``ours_maximal``: the same in maximal coordinates (``joint_coordinates="maximal"``), what
+  the arm cost before it was stepped in joint coordinates;
 * ``pybullet``: ``stepSimulation()`` once per step;
 * ``mujoco``: ``mj_step`` once per step.
 
 Time per step: the median over every timed step (or batch) of every round. The acceptance
 bound (issue 35): ours at most twice pybullet's.
+
+Accuracy, once, untimed: each engine's largest joint-angle difference over the fall from
+pybullet at dt / 16 (its own discretisation converged; the reference of ``tests/test_urdf.py``),
+per joint.
 """
 
 from __future__ import annotations
@@ -35,9 +41,12 @@ WARM_UP = 24
 ENGINES = {
     "ours": "thesis_rbd, World.step() per step",
     "ours_batched": f"thesis_rbd, World.step({BATCH}) per call",
+    "ours_maximal": f"thesis_rbd in maximal coordinates, World.step({BATCH}) per call",
     "pybullet": "pybullet multibody, stepSimulation()",
     "mujoco": "MuJoCo, mj_step (contacts off)",
 }
+# pybullet's steps per dt in the accuracy reference
+REFERENCE_SUBSTEPS = 16
 REPEATS = {"full": 5, "quick": 3, "tiny": 1}
 SECONDS = {"full": 2.0, "quick": 2.0, "tiny": 0.25}
 
@@ -53,6 +62,8 @@ def _build(engine: str):
         return peers.iiwa_ours(1), 1
     if engine == "ours_batched":
         return peers.iiwa_ours(BATCH), BATCH
+    if engine == "ours_maximal":
+        return peers.iiwa_ours(BATCH, "maximal"), BATCH
     if engine == "pybullet":
         return peers.iiwa_pybullet(), 1
     return peers.iiwa_mujoco(), 1
@@ -89,6 +100,32 @@ def run(params: dict) -> dict:
         "median_us": {e: float(np.median(t)) * 1e6 for e, t in times.items()},
         "mean_us": {e: float(np.mean(t)) * 1e6 for e, t in times.items()},
         "final_positions": final,
+        "angle_errors": _angle_errors(engines, steps),
+    }
+
+
+def _angle_errors(engines: list[str], steps: int) -> dict:
+    """Each engine's largest joint-angle difference (rad) from pybullet at dt / 16 over the
+    fall, per joint (steps of one dt each: the batching changes no result)."""
+    if "pybullet" not in engines:
+        return {}
+    paths = {}
+    for engine in ["reference", *engines]:
+        if engine == "reference":
+            step, positions = peers.iiwa_pybullet(REFERENCE_SUBSTEPS)
+        elif engine.startswith("ours"):
+            step, positions = peers.iiwa_ours(1, "maximal" if engine == "ours_maximal" else "auto")
+        else:
+            (step, positions), _ = _build(engine)
+        path = []
+        for _ in range(steps):
+            step()
+            path.append(positions())
+        paths[engine] = np.array(path)
+    return {
+        engine: np.abs(path - paths["reference"]).max(axis=0).tolist()
+        for engine, path in paths.items()
+        if engine not in ("reference", "ours_batched")
     }
 
 
@@ -120,4 +157,24 @@ def summarise(records: list[dict], figures_dir) -> Section:
         columns=["engine", "median (us)", "mean (us)", "/ pybullet", "/ MuJoCo"],
         rows=rows,
     )
-    return Section(NAME, TITLE, summary, tables=[table])
+    errors = result.get("angle_errors", {})
+    labels = {"ours": "thesis_rbd (joint coordinates)", "ours_maximal": "thesis_rbd (maximal)",
+              "pybullet": "pybullet multibody", "mujoco": "MuJoCo (contacts off)"}  # fmt: skip
+    accuracy = Table(
+        caption="The same fall at dt = 1/240: each engine's largest joint-angle difference from "
+        f"pybullet at dt / {REFERENCE_SUBSTEPS} (rad), per joint, and the ratio of ours to "
+        "pybullet's on the joint where it is largest (issue 35's accuracy bound: 2)",
+        columns=["engine", *[f"joint {j + 1}" for j in range(7)], "worst / pybullet's"],
+        rows=[
+            [
+                labels[engine],
+                *[format_number(e) for e in error],
+                format_number(max(np.divide(error, errors["pybullet"]))),
+            ]
+            for engine, error in errors.items()
+        ],
+    )
+    if "ours" in errors:
+        worst = max(np.divide(errors["ours"], errors["pybullet"]))
+        summary["ours_worst_error_ratio"] = float(worst)
+    return Section(NAME, TITLE, summary, tables=[table, accuracy] if errors else [table])

@@ -78,7 +78,7 @@ from thesis_rbd.dynamics.joint_set import (
 )
 from thesis_rbd.spatial.quaternion import conjugate, mul, normalize, rotate, to_matrix_into
 
-__all__ = ["step_articulated"]
+__all__ = ["AUTO_SUBSTEPS", "step_articulated"]
 
 # Columns of the per-joint scratch: position q and rate qdot as the bodies have them, the
 # drift's rate, the generalised momentum p = S^T h (h: the subtree's spatial momentum), the
@@ -87,6 +87,12 @@ __all__ = ["step_articulated"]
 # impulse, a unit vector to solve for, and a solve's result.
 _Q, _QD, _RATE, _P, _RHS, _FORCE, _ARMATURE, _DIVISOR, _LIMIT, _UNIT, _SOLVED = range(11)
 _COLUMNS = 11
+# Substeps of a step where the world's joint_substeps is "auto". The scheme is first order,
+# and a step in two parts halves its error for twice the (small) cost: the iiwa's fall at
+# dt = 1/240 then stays within 0.044 rad of the converged path (0.081 in one part, pybullet's
+# multibody 0.065 on the same joint), the cart-pole of MuJoCo's examples within 0.33 rad
+# (0.66 in one part, MuJoCo's Euler 0.29).
+AUTO_SUBSTEPS = 2
 # Most sweeps of the limits' projected Gauss-Seidel (their matrix is exact and small: one
 # limit converges in one sweep, a few in tens).
 _LIMIT_SWEEPS = 100

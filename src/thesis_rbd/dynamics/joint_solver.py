@@ -1,7 +1,10 @@
 """Jointed bodies: integrated by symplectic Euler and held together at the end of each
 substep.
 
-The integrator skips jointed bodies; the ``joints`` stage after it moves them instead, in
+The integrator skips jointed bodies; the ``joints`` stage after it moves them instead. An
+island that is a fixed-base tree of hinges, sliders and welds is stepped in joint coordinates
+(``articulated``) wherever nothing else acts on it; every other island, and that one where
+something else does, is stepped here in maximal coordinates, in
 ``substeps`` equal parts of the step (more where light links carry heavy loads: they vibrate
 sideways at w ~ sqrt(3 T / (m l)), and the step must resolve that). Each substep of length h:
 
@@ -39,7 +42,7 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
-from thesis_rbd.dynamics.articulated import step_articulated
+from thesis_rbd.dynamics.articulated import AUTO_SUBSTEPS, step_articulated
 from thesis_rbd.dynamics.free_rotation import turn_freely
 from thesis_rbd.dynamics.integrators import body_forces
 from thesis_rbd.dynamics.joint_motors import drive_joints
@@ -138,12 +141,12 @@ def step_jointed_bodies(
         if fixed_base[island]:
             for j in joints:
                 impulse[j, :] = 0.0
+            parts = substeps if substeps > 0 else AUTO_SUBSTEPS
             if step_articulated(
-                max(substeps, 1), dt, joints, parents[first:last], sides[first:last], ints,
-                floats, solved, position, orientation, linear_momentum, angular_momentum,
-                inverse_mass, inverse_inertia_body, inertia_body, external_force, drag,
-                pf_start, pf_arm, pf_force, impulse, kinematic_velocity,
-                kinematic_angular_velocity,
+                parts, dt, joints, parents[first:last], sides[first:last], ints, floats,
+                solved, position, orientation, linear_momentum, angular_momentum, inverse_mass,
+                inverse_inertia_body, inertia_body, external_force, drag, pf_start, pf_arm,
+                pf_force, impulse, kinematic_velocity, kinematic_angular_velocity,
             ):  # fmt: skip
                 bad = _first_non_finite(bodies, position, orientation, linear_momentum,
                                         angular_momentum)  # fmt: skip

@@ -509,8 +509,8 @@ class World(WorldReadout, WorldJoints, WorldStateSetters):
         jointed[: b.count] = joints.jointed(b.count)
         return (
             0 if self.joint_substeps == "auto" else self.joint_substeps, joints.ints,
-            joints.floats, *islands, fixed_base, parents, sides, jointed, np.zeros(rows, bool), np.zeros((rows, 3)),
-            np.zeros((rows, 4)), self._joint_impulse,
+            joints.floats, *islands, fixed_base, parents, sides, jointed, np.zeros(rows, bool),
+            np.zeros((rows, 3)), np.zeros((rows, 4)), self._joint_impulse,
         )  # fmt: skip
 
     def _moving_kinematic(self) -> np.ndarray:
