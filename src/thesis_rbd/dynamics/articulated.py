@@ -153,8 +153,9 @@ def step_articulated(
     pushed = np.empty((n, 6))  # a solve's scratch
     joint = np.empty((n, _COLUMNS))
     responses = np.empty((n, n))  # columns of (M + h D)^-1 for the joints at a limit
+    engaged = np.empty(n, np.int64)  # those joints
+    bounds = np.empty((n, 3))  # their bounds on the rate, sides, impulses
     rotation = np.empty((3, 3))
-    world = np.empty((3, 3))
     h = dt / parts
     for _ in range(parts):
         root = _child(joints[n - 1], sides[n - 1], ints)
@@ -187,7 +188,7 @@ def step_articulated(
         for e in range(n):
             joint[e, _RATE] = joint[e, _SOLVED]
         _hold_limits(h, joints, parents, ints, floats, motion, response, joint, pushed,
-                     velocity, responses)  # fmt: skip
+                     velocity, responses, engaged, bounds)  # fmt: skip
         for e in range(n):
             j = joints[e]
             # the momentum after the kick: its forces, its damping at the drift's rate, and
@@ -208,11 +209,10 @@ def step_articulated(
         for e in range(n):
             joint[e, _QD] = joint[e, _SOLVED]
         _velocities(joints, parents, motion, joint, _QD, velocity)
-        _set_momenta(
-            joints, sides, ints, origin, position, orientation, inverse_mass, inertia_body,
-            velocity, linear_momentum, angular_momentum, rotation, world,
-        )  # fmt: skip
-        _subtree_momenta(joints, parents, rigid, velocity, momentum)
+        _link_momenta(joints, rigid, velocity, momentum)
+        _set_momenta(joints, sides, ints, origin, position, momentum, linear_momentum,
+                     angular_momentum)  # fmt: skip
+        _sum_subtrees(joints, parents, momentum)
         _record_impulses(h, joints, sides, ints, floats, origin, position, start, momentum,
                          applied, impulse)  # fmt: skip
     return True
@@ -450,15 +450,14 @@ def _body_momenta(joints, parents, sides, ints, origin, position, linear_momentu
 
 
 @njit(allocates=False)
-def _subtree_momenta(joints, parents, rigid, velocity, momentum):
-    """Each subtree's spatial momentum (n_O, p), the sum of I v over its links."""
+def _link_momenta(joints, rigid, velocity, momentum):
+    """Each link's own spatial momentum I v (n_O, p)."""
     for e in range(len(joints)):
         for a in range(6):
             total = 0.0
             for c in range(6):
                 total += rigid[e, a, c] * velocity[e, c]
             momentum[e, a] = total
-    _sum_subtrees(joints, parents, momentum)
 
 
 @njit(allocates=False)
@@ -535,19 +534,19 @@ def _solve(joints, parents, ints, motion, response, joint, column, pushed, accel
             a[r] += motion[e, r] * x
 
 
-@njit
+@njit(allocates=False)
 def _hold_limits(h, joints, parents, ints, floats, motion, response, joint, pushed,
-                 accelerations, responses):  # fmt: skip
+                 accelerations, responses, engaged, bounds):  # fmt: skip
     """Keep the joints the drift would carry past a limit on it (as the maximal path's limit
     rows do): impulses lam along them, pushing only away from the limit, with drift rates
     qdot+ + W lam for W = (M + h D)^-1 (columns by ``_solve``) that end the drift on the
     limit or inside it, by projected Gauss-Seidel on the small exact W. Adds W lam to
     ``joint[:, _RATE]`` and writes lam into ``joint[:, _LIMIT]``.
 
-    ``pushed``, ``accelerations`` (n, 6) and ``responses`` (n, n) are scratch.
+    ``pushed``, ``accelerations`` (n, 6), ``responses`` (n, n), ``engaged`` (n,) and
+    ``bounds`` (n, 3) are scratch.
     """
     n = len(joints)
-    engaged = np.empty(n, np.int64)
     count = 0
     for e in range(n):
         joint[e, _LIMIT] = 0.0
@@ -566,10 +565,8 @@ def _hold_limits(h, joints, parents, ints, floats, motion, response, joint, push
     for c in range(count):
         _unit_solve(engaged[c], joints, parents, ints, motion, response, joint, pushed,
                     accelerations, responses[c])  # fmt: skip
-    # each engaged joint's bound on its rate and its side (+1: a lower limit, lam >= 0)
-    bound = np.empty(count)
-    side = np.empty(count)
-    lam = np.zeros(count)
+    # each engaged joint's bound on its rate, its side (+1: a lower limit, lam >= 0), lam
+    bound, side, lam = bounds[:, 0], bounds[:, 1], bounds[:, 2]
     scale = 0.0
     for c in range(count):
         e = engaged[c]
@@ -577,6 +574,7 @@ def _hold_limits(h, joints, parents, ints, floats, motion, response, joint, push
         free = joint[e, _Q] + h * joint[e, _RATE]
         lower = abs(free - f[LOWER]) < abs(free - f[UPPER])
         side[c] = 1.0 if lower else -1.0
+        lam[c] = 0.0
         bound[c] = ((f[LOWER] if lower else f[UPPER]) - joint[e, _Q]) / h
         scale = max(scale, abs(bound[c]), abs(joint[e, _RATE]))
     for _ in range(_LIMIT_SWEEPS):
@@ -653,20 +651,19 @@ def _place_links(joints, sides, ints, floats, position, orientation, joint):
 
 
 @njit(allocates=False)
-def _set_momenta(joints, sides, ints, origin, position, orientation, inverse_mass, inertia_body,
-                 velocity, linear_momentum, angular_momentum, rotation, world):  # fmt: skip
-    """Each link's momenta from its spatial velocity: P = m (v_O + w x r), L = I w."""
+def _set_momenta(joints, sides, ints, origin, position, momentum, linear_momentum,
+                 angular_momentum):  # fmt: skip
+    """Each link's momenta from its spatial momentum (n_O, p) (``_link_momenta``): P = p,
+    L = n_O - r x p about its centre of mass."""
     for e in range(len(joints)):
         i = _child(joints[e], sides[e], ints)
-        v = velocity[e]
-        w = (v[0], v[1], v[2])
-        carried = _cross(w, (position[i, 0] - origin[0], position[i, 1] - origin[1],
-                             position[i, 2] - origin[2]))  # fmt: skip
-        _world_inertia(orientation[i], inertia_body[i], rotation, world)
-        m = 1.0 / inverse_mass[i]
+        h = momentum[e]
+        p = (h[3], h[4], h[5])
+        moment = _cross((position[i, 0] - origin[0], position[i, 1] - origin[1],
+                         position[i, 2] - origin[2]), p)  # fmt: skip
         for k in range(3):
-            linear_momentum[i, k] = m * (v[3 + k] + carried[k])
-            angular_momentum[i, k] = _dot((world[k, 0], world[k, 1], world[k, 2]), w)
+            linear_momentum[i, k] = p[k]
+            angular_momentum[i, k] = h[k] - moment[k]
 
 
 @njit(allocates=False)
