@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from thesis_rbd._numba.jit import njit
+from thesis_rbd.collision._vec3 import cross, dot
 from thesis_rbd.dynamics.integrators import angular_velocity, body_forces
 from thesis_rbd.dynamics.joint_rows import (
     AT_LIMIT,
@@ -254,16 +255,6 @@ def _parent(j, side, ints):
 
 
 @njit(allocates=False)
-def _cross(u, v):
-    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-
-
-@njit(allocates=False)
-def _dot(u, v):
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-@njit(allocates=False)
 def _vector(f, start):
     return (f[start], f[start + 1], f[start + 2])
 
@@ -300,7 +291,7 @@ def _joint_motion(kind, side, f, xa, qa, xb, qb, origin, out):
         else:
             x, arm = xa, rotate(qa, _vector(f, ARM_A))
         anchor = (x[0] + arm[0] - origin[0], x[1] + arm[1] - origin[1], x[2] + arm[2] - origin[2])
-        moment = _cross(anchor, axis)
+        moment = cross(anchor, axis)
         for k in range(3):
             out[k] = sign * axis[k]
             out[3 + k] = sign * moment[k]
@@ -315,16 +306,16 @@ def _joint_state(kind, f, xa, qa, va, wa, xb, qb, vb, wb, axis):
     """(q, qdot): a hinge's angle and rate, a slider's travel and speed, of body a relative to
     body b (as ``joint_rows.joint_readout`` reads them); zero for a weld."""
     if kind == REVOLUTE:
-        return hinge_angle(f, qa, qb), _dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis)
+        return hinge_angle(f, qa, qb), dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis)
     if kind == PRISMATIC:
         ra, rb = rotate(qa, _vector(f, ARM_A)), rotate(qb, _vector(f, ARM_B))
         gap = (xa[0] + ra[0] - xb[0] - rb[0], xa[1] + ra[1] - xb[1] - rb[1],
                xa[2] + ra[2] - xb[2] - rb[2])  # fmt: skip
         arm_b = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
-        ua, ub = _cross(wa, ra), _cross(wb, arm_b)
+        ua, ub = cross(wa, ra), cross(wb, arm_b)
         relative = (va[0] + ua[0] - vb[0] - ub[0], va[1] + ua[1] - vb[1] - ub[1],
                     va[2] + ua[2] - vb[2] - ub[2])  # fmt: skip
-        return _dot(gap, axis), _dot(relative, axis) + _dot(gap, _cross(wb, axis))
+        return dot(gap, axis), dot(relative, axis) + dot(gap, cross(wb, axis))
     return 0.0, 0.0
 
 
@@ -392,7 +383,7 @@ def _rigid_inertias(joints, sides, ints, origin, position, orientation, inertia_
         spatial = rigid[e]
         # [[I_c + m (r.r 1 - r r^T), m [r]x], [m [r]x^T, m 1]]
         _world_inertia(orientation[i], inertia_body[i], rotation, spatial)
-        rr = _dot(r, r)
+        rr = dot(r, r)
         skew = ((0.0, -r[2], r[1]), (r[2], 0.0, -r[0]), (-r[1], r[0], 0.0))
         for a in range(3):
             for c in range(3):
@@ -415,7 +406,7 @@ def _applied_forces(joints, parents, sides, ints, origin, position, orientation,
             inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
         )  # fmt: skip
         r = (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
-        moment = _cross(r, F)
+        moment = cross(r, F)
         for k in range(3):
             applied[e, k] = T[k] + moment[k]
             applied[e, 3 + k] = F[k]
@@ -442,7 +433,7 @@ def _body_momenta(joints, parents, sides, ints, origin, position, linear_momentu
         i = _child(joints[e], sides[e], ints)
         P, L = linear_momentum[i], angular_momentum[i]
         r = (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
-        moment = _cross(r, (P[0], P[1], P[2]))
+        moment = cross(r, (P[0], P[1], P[2]))
         for k in range(3):
             momentum[e, k] = L[k] + moment[k]
             momentum[e, 3 + k] = P[k]
@@ -470,7 +461,7 @@ def _joint_forces(joints, floats, motion, velocity, momentum, applied, joint):
         w, vo = (v[0], v[1], v[2]), (v[3], v[4], v[5])
         n, p = (h[0], h[1], h[2]), (h[3], h[4], h[5])
         # v x* h = (w x n + v_O x p, w x p)
-        spin, drift, turn = _cross(w, n), _cross(vo, p), _cross(w, p)
+        spin, drift, turn = cross(w, n), cross(vo, p), cross(w, p)
         S, f = motion[e], applied[e]
         total = _torque(joints[e], floats)
         for k in range(3):
@@ -659,7 +650,7 @@ def _set_momenta(joints, sides, ints, origin, position, momentum, linear_momentu
         i = _child(joints[e], sides[e], ints)
         h = momentum[e]
         p = (h[3], h[4], h[5])
-        moment = _cross((position[i, 0] - origin[0], position[i, 1] - origin[1],
+        moment = cross((position[i, 0] - origin[0], position[i, 1] - origin[1],
                          position[i, 2] - origin[2]), p)  # fmt: skip
         for k in range(3):
             linear_momentum[i, k] = p[k]
@@ -683,7 +674,7 @@ def _record_impulses(h, joints, sides, ints, floats, origin, position, start, mo
              momentum[e, 4] - start[e, 4] - h * applied[e, 4],
              momentum[e, 5] - start[e, 5] - h * applied[e, 5])  # fmt: skip
         a = ints[j, BODY_A]
-        lever = _cross((position[a, 0] - origin[0], position[a, 1] - origin[1],
+        lever = cross((position[a, 0] - origin[0], position[a, 1] - origin[1],
                         position[a, 2] - origin[2]), F)  # fmt: skip
         for k in range(3):
             impulse[j, k] += sign * F[k]
