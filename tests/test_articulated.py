@@ -5,11 +5,14 @@ Newton's method, a different formulation of the same equations) where both conve
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import thesis_rbd as rbd
 from thesis_rbd.dynamics.articulated import AUTO_SUBSTEPS
+from thesis_rbd.scene import SceneError, parse_scene
 
 G = 9.81
 DT = 1 / 240
@@ -170,3 +173,32 @@ def test_a_hanging_rod_at_rest_reports_its_weight_at_the_hinge():
 def test_an_unknown_joint_coordinates_is_refused():
     with pytest.raises(ValueError, match="joint_coordinates"):
         rbd.World(joint_coordinates="reduced")
+
+
+_SCENE = """
+[world]
+gravity = [0.0, 0.0, -9.81]
+joint_coordinates = {coordinates}
+
+[[body]]
+name = "rod"
+shape = {{ type = "box", extents = [0.05, 0.05, 0.5] }}
+mass = 1.0
+position = [0.0, 0.25, 0.0]
+orientation = [0.7071067811865476, 0.0, 0.0, 0.7071067811865476]
+
+[[joint]]
+kind = "revolute"
+body_a = "rod"
+anchor = [0.0, 0.0, 0.0]
+axis = [1.0, 0.0, 0.0]
+"""
+
+
+def test_a_scene_file_chooses_the_joint_coordinates_and_a_bad_one_is_named():
+    """``joint_coordinates`` in a scene's [world] reaches the world; an unknown value is
+    refused naming the setting."""
+    scene = parse_scene(_SCENE.format(coordinates='"maximal"'), "s", "s.toml", Path("."))
+    assert scene.build().joint_coordinates == "maximal"
+    with pytest.raises(SceneError, match="joint_coordinates"):
+        parse_scene(_SCENE.format(coordinates='"reduced"'), "s", "s.toml", Path("."))
