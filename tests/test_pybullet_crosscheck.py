@@ -58,7 +58,9 @@ def test_elastic_energy_at_least_as_constant_as_pybullet():
 def test_double_pendulum_energy_error_below_pybullets_multibody():
     """The built-in double pendulum released level: our largest energy error over 1 s and
     over 5 s is below pybullet's multibody pendulum's (validation/pybullet_joints.py: link
-    damping zeroed, default motors off), and both halve with dt (first order)."""
+    damping zeroed, default motors off), and ours shrinks at least as fast as dt (both
+    schemes are first order; ours, stepped in joint coordinates, gains more than that on
+    energy as dt shrinks)."""
     from validation.pybullet_joints import double_pendulum_energy_errors
 
     def ours(dt):
@@ -76,4 +78,4 @@ def test_double_pendulum_energy_error_below_pybullets_multibody():
         assert mine[:second].max() < theirs[:second].max()
         assert mine.max() < theirs.max()
     coarse, fine = ours(DT).max(), ours(DT / 2).max()
-    assert 1.6 < coarse / fine < 2.4
+    assert coarse / fine > 1.6

@@ -4,6 +4,7 @@ cluster), through a killed worker and an interrupted study."""
 
 from __future__ import annotations
 
+import csv
 import itertools
 import json
 import math
@@ -361,7 +362,7 @@ def test_a_lost_dask_worker_loses_no_run(tmp_path):
 @pytest.mark.skipif(sys.platform != "linux", reason="kills processes by signal")
 def test_an_interrupted_study_resumes_where_it_stopped(in_process, tmp_path):
     scene_file = tmp_path / "top.toml"
-    scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
+    scene_file.write_text(TOP, encoding="utf-8")  # runs long enough to be interrupted
     out = tmp_path / "study"
     command = [
         sys.executable, "-m", "thesis_rbd.cli", "study", str(scene_file), "--out", str(out),
@@ -399,7 +400,21 @@ def test_the_command_line_writes_the_table_page_and_recommendation(tmp_path):
         capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    assert "cheapest within position <= 0.001 m: dt=0.01667" in result.stdout
+    # the recommendation is the variant whose every seed is within the bound (or its floor)
+    # and whose runs took least wall time per simulated second, as the table has them: the
+    # timings, not the grid's order, decide
+    variants = {}
+    for row in csv.DictReader((tmp_path / "results.csv").open()):
+        variants.setdefault(row["dt"], []).append(row)
+    within = {
+        dt: np.mean([float(r["wall_per_second"]) for r in rows])
+        for dt, rows in variants.items()
+        if all(
+            float(r["position_error"]) <= max(1e-3, float(r["position_error_floor"])) for r in rows
+        )
+    }
+    cheapest = min(within, key=within.get)
+    assert f"cheapest within position <= 0.001 m: dt={float(cheapest):.4g}" in result.stdout
     header = (tmp_path / "results.csv").read_text().splitlines()[0].split(",")
     assert header[:3] == ["dt", "seed", "status"] and "position_error_floor" in header
     assert "cheapest within" in (tmp_path / "study.html").read_text()
@@ -444,7 +459,7 @@ def test_a_script_without_a_main_guard_runs_a_study_on_workers(tmp_path):
 @pytest.mark.skipif(sys.platform != "linux", reason="interrupts by signal")
 def test_ctrl_c_stops_a_study_in_a_line_and_the_same_command_resumes(tmp_path):
     scene_file = tmp_path / "top.toml"
-    scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
+    scene_file.write_text(TOP, encoding="utf-8")  # runs long enough to be interrupted
     out = tmp_path / "study"
     command = [
         sys.executable, "-m", "thesis_rbd.cli", "study", str(scene_file), "--out", str(out),

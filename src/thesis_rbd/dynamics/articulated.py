@@ -4,15 +4,17 @@ Featherstone's articulated-body algorithm (Featherstone, "Rigid Body Dynamics Al
 
 An island whose joints are revolute, prismatic or fixed, and which hangs from the ground (the
 world or a static body) by one of them, has one joint coordinate per hinge or slider and no
-other freedom. Where nothing but forces, torque motors and joint damping act on it (no contact
-solved its bodies this step, no velocity, position or servo motor, no joint friction, its
-ground standing still), the ``joints`` stage steps it here instead of holding its maximal
-coordinates together (``joint_solver``); anything else sends that step to the maximal path,
-from the same state. Both paths kick momenta and then drift positions, this one in the joint
-positions q and their generalised momenta p = S^T h (S: a joint's motion per unit rate, h:
-the spatial momentum of the links beyond it), the maximal path in the bodies' poses and
-momenta; each keeps the momenta no force changes (a vertical base hinge's, under gravity: the arm's
-angular momentum about it), which sets where a mechanism's free directions drift to.
+other freedom. Where nothing but forces, set torques, joint damping and limits act on it (no
+contact solved its bodies this step, no velocity, position or servo motor, no joint
+friction, its ground standing still), the ``joints`` stage steps it here instead of holding
+its maximal coordinates together (``joint_solver``); anything else sends that step to the
+maximal path, from the same state. Both paths kick momenta and then drift positions, this
+one in the joint positions q and their generalised momenta p = S^T h (S: a joint's motion per
+unit rate, h: the spatial momentum of the links beyond it), the maximal path in the bodies'
+poses and momenta. Each keeps the momenta no force changes (under gravity, an arm's angular
+momentum about a vertical base hinge), which sets where a mechanism's free directions drift
+to: integrating the rates instead (pybullet's multibody does) lets a limit's impact leave the
+base turning at the wrong rate ever after.
 
 Each substep of length h, from the bodies' state:
 
@@ -23,10 +25,10 @@ Each substep of length h, from the bodies' state:
   (the integrators' force model: external forces, drag, point forces), less its damping
   -h d qdot+ at the drift's rate qdot+ = M(q)^-1 p+ (implicit: no damping is too strong for
   the step, where a light wrist's explicit damping diverges once h d / I > 2). The velocity
-  term v x* h is taken where the substep begins: on the iiwa's fall, taking it at qdot+
-  instead (two fixed-point passes, symplectic Euler proper) left the worst joint 0.23 rad
-  from the converged path at dt = 1/240 against 0.08. The articulated-body algorithm
-  factors M + h D once and solves with it in two O(n) passes;
+  term v x* h is taken where the substep begins: taking it at qdot+ instead (symplectic
+  Euler proper, by fixed-point passes) costs a pass and, on the iiwa's fall (report section
+  25), strays further from the converged path. The articulated-body algorithm factors
+  M + h D once and solves with it in two O(n) passes;
 * a joint the drift would carry past a limit is held on it by an impulse along it, with
   the others' response to it exact (a projected Gauss-Seidel on the small matrix of the
   limited joints' columns of (M + h D)^-1): a limit holds rigidly and inelastically, as the
@@ -89,10 +91,9 @@ __all__ = ["AUTO_SUBSTEPS", "step_articulated"]
 _Q, _QD, _RATE, _P, _RHS, _FORCE, _ARMATURE, _DIVISOR, _LIMIT, _UNIT, _SOLVED = range(11)
 _COLUMNS = 11
 # Substeps of a step where the world's joint_substeps is "auto". The scheme is first order,
-# and a step in two parts halves its error for twice the (small) cost: the iiwa's fall at
-# dt = 1/240 then stays within 0.044 rad of the converged path (0.081 in one part, pybullet's
-# multibody 0.065 on the same joint), the cart-pole of MuJoCo's examples within 0.33 rad
-# (0.66 in one part, MuJoCo's Euler 0.29).
+# and a step in two parts halves its error for twice the (small) cost: what brings the
+# cart-pole of MuJoCo's examples within twice MuJoCo's own error at dt = 1/240
+# (tests/test_mjcf.py), where one part does not.
 AUTO_SUBSTEPS = 2
 # Most sweeps of the limits' projected Gauss-Seidel (their matrix is exact and small: one
 # limit converges in one sweep, a few in tens).
