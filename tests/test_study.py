@@ -362,7 +362,7 @@ def test_a_lost_dask_worker_loses_no_run(tmp_path):
 @pytest.mark.skipif(sys.platform != "linux", reason="kills processes by signal")
 def test_an_interrupted_study_resumes_where_it_stopped(in_process, tmp_path):
     scene_file = tmp_path / "top.toml"
-    scene_file.write_text(TOP, encoding="utf-8")  # runs long enough to be interrupted
+    scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
     out = tmp_path / "study"
     command = [
         sys.executable, "-m", "thesis_rbd.cli", "study", str(scene_file), "--out", str(out),
@@ -459,11 +459,11 @@ def test_a_script_without_a_main_guard_runs_a_study_on_workers(tmp_path):
 @pytest.mark.skipif(sys.platform != "linux", reason="interrupts by signal")
 def test_ctrl_c_stops_a_study_in_a_line_and_the_same_command_resumes(tmp_path):
     scene_file = tmp_path / "top.toml"
-    scene_file.write_text(TOP, encoding="utf-8")  # runs long enough to be interrupted
+    scene_file.write_text(TOP.replace("seconds = 2.0", "seconds = 1.0"), encoding="utf-8")
     out = tmp_path / "study"
     command = [
         sys.executable, "-m", "thesis_rbd.cli", "study", str(scene_file), "--out", str(out),
-        "--vary", "integrator=euler,rk4", "--vary", "dt=1/2000,1/4000", "--seeds", "2",
+        "--vary", "integrator=euler,rk4", "--vary", "dt=1/2000,1/4000,1/8000", "--seeds", "4",
         "-j", "2", "--quiet",
     ]  # fmt: skip
     first = subprocess.Popen(command, start_new_session=True, stderr=subprocess.PIPE, text=True)
@@ -475,5 +475,6 @@ def test_ctrl_c_stops_a_study_in_a_line_and_the_same_command_resumes(tmp_path):
     assert first.returncode == 130, stderr
     assert "interrupted" in stderr and "Traceback" not in stderr
     subprocess.run(command, check=True, timeout=300)
-    assert len(list(out.glob("runs/[!.]*.json"))) == 8
-    assert len((out / "results.csv").read_text().splitlines()) == 9
+    # 24 runs: seconds of work after the first record, so the signal finds the study running
+    assert len(list(out.glob("runs/[!.]*.json"))) == 24
+    assert len((out / "results.csv").read_text().splitlines()) == 25
