@@ -70,7 +70,9 @@ def iiwa_pybullet(substeps: int = 1):
         for _ in range(substeps):
             p.stepSimulation(physicsClientId=client)
 
-    return (step if substeps > 1 else lambda: p.stepSimulation(physicsClientId=client)), positions
+    if substeps == 1:  # timed: no loop around the one call
+        return (lambda: p.stepSimulation(physicsClientId=client)), positions
+    return step, positions
 
 
 def iiwa_mujoco():

@@ -51,14 +51,15 @@ import numpy as np
 
 from thesis_rbd._numba.jit import njit
 from thesis_rbd.collision._vec3 import cross, dot
+from thesis_rbd.dynamics.contact_kinematics import world_tensor
 from thesis_rbd.dynamics.integrators import angular_velocity, body_forces
 from thesis_rbd.dynamics.joint_rows import (
-    AT_LIMIT,
     FIXED,
     PRISMATIC,
     REVOLUTE,
     body_pose,
-    hinge_angle,
+    joint_readout,
+    limit_band,
 )
 from thesis_rbd.dynamics.joint_set import (
     ARM_A,
@@ -74,12 +75,10 @@ from thesis_rbd.dynamics.joint_set import (
     MOTOR_TARGET,
     NO_MOTOR,
     RELATIVE_ORIENTATION,
-    SCALE,
-    SPRING_STIFFNESS,
     TORQUE_MOTOR,
     UPPER,
 )
-from thesis_rbd.spatial.quaternion import conjugate, mul, normalize, rotate, to_matrix_into
+from thesis_rbd.spatial.quaternion import conjugate, mul, normalize, rotate
 
 __all__ = ["AUTO_SUBSTEPS", "step_articulated"]
 
@@ -186,9 +185,7 @@ def step_articulated(
         _joint_forces(joints, floats, motion, velocity, start, applied, joint)
         for e in range(n):
             joint[e, _RHS] = joint[e, _P] + h * joint[e, _FORCE]
-        _solve(joints, parents, ints, motion, response, joint, _RHS, pushed, velocity)
-        for e in range(n):
-            joint[e, _RATE] = joint[e, _SOLVED]
+        _solve(joints, parents, ints, motion, response, joint, _RHS, _RATE, pushed, velocity)
         _hold_limits(h, joints, parents, ints, floats, motion, response, joint, pushed,
                      velocity, responses, engaged, bounds)  # fmt: skip
         for e in range(n):
@@ -207,9 +204,7 @@ def step_articulated(
         for e in range(n):
             joint[e, _ARMATURE] = 0.0
         _factor(joints, parents, ints, motion, rigid, inertia, response, joint)
-        _solve(joints, parents, ints, motion, response, joint, _P, pushed, velocity)
-        for e in range(n):
-            joint[e, _QD] = joint[e, _SOLVED]
+        _solve(joints, parents, ints, motion, response, joint, _P, _QD, pushed, velocity)
         _velocities(joints, parents, motion, joint, _QD, velocity)
         _link_momenta(joints, rigid, velocity, momentum)
         _set_momenta(joints, sides, ints, origin, position, momentum, linear_momentum,
@@ -231,7 +226,7 @@ def _drivable(joints, parents, sides, ints, floats, solved, kinematic_velocity,
         code = int(f[MOTOR])
         if code != NO_MOTOR and code != TORQUE_MOTOR:
             return False
-        if f[FRICTION] > 0.0 or f[SPRING_STIFFNESS] > 0.0 or solved[_child(j, sides[e], ints)]:
+        if f[FRICTION] > 0.0 or solved[_child(j, sides[e], ints)]:
             return False
         ground = _parent(j, sides[e], ints)
         if parents[e] < 0 and ground >= 0:
@@ -253,6 +248,12 @@ def _child(j, side, ints):
 def _parent(j, side, ints):
     """Joint j's body nearer the ground (-1: the world)."""
     return ints[j, BODY_B] if side == 0 else ints[j, BODY_A]
+
+
+@njit(allocates=False)
+def _offset(position, i, origin):
+    """Body i's centre of mass relative to the origin."""
+    return (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
 
 
 @njit(allocates=False)
@@ -281,7 +282,7 @@ def _body_velocity(body, orientation, linear_momentum, angular_momentum, inverse
 @njit(allocates=False)
 def _joint_motion(kind, side, f, xa, qa, xb, qb, origin, out):
     """Write S (6,) of a joint at the poses given: its child's spatial velocity relative to
-    its parent's per unit rate (zero for a weld). Returns the joint's world axis."""
+    its parent's per unit rate (zero for a weld)."""
     sign = 1.0 if side == 0 else -1.0
     axis = rotate(qb, _vector(f, AXIS_B))
     for k in range(6):
@@ -299,25 +300,6 @@ def _joint_motion(kind, side, f, xa, qa, xb, qb, origin, out):
     elif kind == PRISMATIC:
         for k in range(3):
             out[3 + k] = sign * axis[k]
-    return axis
-
-
-@njit(allocates=False)
-def _joint_state(kind, f, xa, qa, va, wa, xb, qb, vb, wb, axis):
-    """(q, qdot): a hinge's angle and rate, a slider's travel and speed, of body a relative to
-    body b (as ``joint_rows.joint_readout`` reads them); zero for a weld."""
-    if kind == REVOLUTE:
-        return hinge_angle(f, qa, qb), dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis)
-    if kind == PRISMATIC:
-        ra, rb = rotate(qa, _vector(f, ARM_A)), rotate(qb, _vector(f, ARM_B))
-        gap = (xa[0] + ra[0] - xb[0] - rb[0], xa[1] + ra[1] - xb[1] - rb[1],
-               xa[2] + ra[2] - xb[2] - rb[2])  # fmt: skip
-        arm_b = (xa[0] + ra[0] - xb[0], xa[1] + ra[1] - xb[1], xa[2] + ra[2] - xb[2])
-        ua, ub = cross(wa, ra), cross(wb, arm_b)
-        relative = (va[0] + ua[0] - vb[0] - ub[0], va[1] + ua[1] - vb[1] - ub[1],
-                    va[2] + ua[2] - vb[2] - ub[2])  # fmt: skip
-        return dot(gap, axis), dot(relative, axis) + dot(gap, cross(wb, axis))
-    return 0.0, 0.0
 
 
 @njit(allocates=False)
@@ -334,22 +316,10 @@ def _read_joints(joints, sides, ints, floats, origin, position, orientation, lin
         vb, wb = _body_velocity(b, orientation, linear_momentum, angular_momentum, inverse_mass,
                                 inverse_inertia_body)  # fmt: skip
         kind = ints[j, KIND]
-        axis = _joint_motion(kind, sides[e], floats[j], xa, qa, xb, qb, origin, motion[e])
-        joint[e, _Q], joint[e, _QD] = _joint_state(kind, floats[j], xa, qa, va, wa, xb, qb, vb,
-                                                   wb, axis)  # fmt: skip
-
-
-@njit(allocates=False)
-def _world_inertia(q, inertia_body, rotation, out):
-    """out[:3, :3] = R I_body R^T for the body at orientation q."""
-    to_matrix_into((q[0], q[1], q[2], q[3]), rotation)
-    for r in range(3):
-        for c in range(3):
-            total = 0.0
-            for k in range(3):
-                for m in range(3):
-                    total += rotation[r, k] * inertia_body[k, m] * rotation[c, m]
-            out[r, c] = total
+        _joint_motion(kind, sides[e], floats[j], xa, qa, xb, qb, origin, motion[e])
+        # a hinge's angle and rate, a slider's travel and speed (zero for a weld)
+        readout = joint_readout(kind, floats[j], xa, qa, va, wa, xb, qb, vb, wb)
+        joint[e, _Q], joint[e, _QD] = readout[0], readout[1]
 
 
 @njit(allocates=False)
@@ -380,10 +350,10 @@ def _rigid_inertias(joints, sides, ints, origin, position, orientation, inertia_
     for e in range(len(joints)):
         i = _child(joints[e], sides[e], ints)
         m = 1.0 / inverse_mass[i]
-        r = (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
+        r = _offset(position, i, origin)
         spatial = rigid[e]
         # [[I_c + m (r.r 1 - r r^T), m [r]x], [m [r]x^T, m 1]]
-        _world_inertia(orientation[i], inertia_body[i], rotation, spatial)
+        world_tensor(orientation[i], inertia_body[i], rotation, spatial)
         rr = dot(r, r)
         skew = ((0.0, -r[2], r[1]), (r[2], 0.0, -r[0]), (-r[1], r[0], 0.0))
         for a in range(3):
@@ -406,7 +376,7 @@ def _applied_forces(joints, parents, sides, ints, origin, position, orientation,
             i, orientation[i], linear_momentum[i], angular_momentum[i], inverse_mass[i],
             inverse_inertia_body[i], external_force, drag, pf_start, pf_arm, pf_force,
         )  # fmt: skip
-        r = (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
+        r = _offset(position, i, origin)
         moment = cross(r, F)
         for k in range(3):
             applied[e, k] = T[k] + moment[k]
@@ -433,7 +403,7 @@ def _body_momenta(joints, parents, sides, ints, origin, position, linear_momentu
     for e in range(len(joints)):
         i = _child(joints[e], sides[e], ints)
         P, L = linear_momentum[i], angular_momentum[i]
-        r = (position[i, 0] - origin[0], position[i, 1] - origin[1], position[i, 2] - origin[2])
+        r = _offset(position, i, origin)
         moment = cross(r, (P[0], P[1], P[2]))
         for k in range(3):
             momentum[e, k] = L[k] + moment[k]
@@ -497,8 +467,9 @@ def _factor(joints, parents, ints, motion, rigid, inertia, response, joint):
 
 
 @njit(allocates=False)
-def _solve(joints, parents, ints, motion, response, joint, column, pushed, accelerations):
-    """``joint[:, _SOLVED]`` <- (M + diag(armature))^-1 ``joint[:, column]``, with
+def _solve(joints, parents, ints, motion, response, joint, column, target, pushed,
+           accelerations):  # fmt: skip
+    """``joint[:, target]`` <- (M + diag(armature))^-1 ``joint[:, column]``, with
     ``_factor``'s factor: the algorithm's two passes with the column as joint forces and no
     velocity (``pushed``, ``accelerations`` (n, 6): scratch)."""
     n = len(joints)
@@ -507,7 +478,7 @@ def _solve(joints, parents, ints, motion, response, joint, column, pushed, accel
             pushed[e, r] = 0.0
     for e in range(n):  # leaves in: what reaches each joint from the forces below it
         u = joint[e, column] - _dot6(motion[e], pushed[e])
-        joint[e, _SOLVED] = u
+        joint[e, target] = u
         parent = parents[e]
         if parent >= 0:
             D = joint[e, _DIVISOR]
@@ -520,8 +491,8 @@ def _solve(joints, parents, ints, motion, response, joint, column, pushed, accel
             a[r] = accelerations[parent, r] if parent >= 0 else 0.0
         x = 0.0
         if ints[joints[e], KIND] != FIXED:
-            x = (joint[e, _SOLVED] - _dot6(response[e], a)) / joint[e, _DIVISOR]
-        joint[e, _SOLVED] = x
+            x = (joint[e, target] - _dot6(response[e], a)) / joint[e, _DIVISOR]
+        joint[e, target] = x
         for r in range(6):
             a[r] += motion[e, r] * x
 
@@ -547,7 +518,7 @@ def _hold_limits(h, joints, parents, ints, floats, motion, response, joint, push
         if kind == FIXED:
             continue
         f = floats[j]
-        band = AT_LIMIT * (1.0 if kind == REVOLUTE else f[SCALE])
+        band = limit_band(kind, f)
         free = joint[e, _Q] + h * joint[e, _RATE]
         if free < f[LOWER] + band or free > f[UPPER] - band:
             engaged[count] = e
@@ -594,7 +565,8 @@ def _unit_solve(k, joints, parents, ints, motion, response, joint, pushed, accel
     k (``_solve`` of a unit vector in ``joint[:, _UNIT]``)."""
     for e in range(len(joints)):
         joint[e, _UNIT] = 1.0 if e == k else 0.0
-    _solve(joints, parents, ints, motion, response, joint, _UNIT, pushed, accelerations)
+    _solve(joints, parents, ints, motion, response, joint, _UNIT, _SOLVED, pushed,
+           accelerations)  # fmt: skip
     for e in range(len(joints)):
         out[e] = joint[e, _SOLVED]
 
@@ -619,7 +591,7 @@ def _place_links(joints, sides, ints, floats, position, orientation, joint):
         relative = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1],
                     f[RELATIVE_ORIENTATION + 2], f[RELATIVE_ORIENTATION + 3])  # fmt: skip
         axis_b = _vector(f, AXIS_B)
-        if kind == REVOLUTE:  # conj(q_b) q_a = turn(axis_b, q) q_0 (joint_rows.hinge_angle)
+        if kind == REVOLUTE:  # conj(q_b) q_a = turn(axis_b, q) q_0 (joint_rows._hinge_angle)
             s = math.sin(0.5 * q)
             relative = mul((s * axis_b[0], s * axis_b[1], s * axis_b[2], math.cos(0.5 * q)),
                            relative)  # fmt: skip
@@ -651,8 +623,7 @@ def _set_momenta(joints, sides, ints, origin, position, momentum, linear_momentu
         i = _child(joints[e], sides[e], ints)
         h = momentum[e]
         p = (h[3], h[4], h[5])
-        moment = cross((position[i, 0] - origin[0], position[i, 1] - origin[1],
-                         position[i, 2] - origin[2]), p)  # fmt: skip
+        moment = cross(_offset(position, i, origin), p)
         for k in range(3):
             linear_momentum[i, k] = p[k]
             angular_momentum[i, k] = h[k] - moment[k]
@@ -675,8 +646,7 @@ def _record_impulses(h, joints, sides, ints, floats, origin, position, start, mo
              momentum[e, 4] - start[e, 4] - h * applied[e, 4],
              momentum[e, 5] - start[e, 5] - h * applied[e, 5])  # fmt: skip
         a = ints[j, BODY_A]
-        lever = cross((position[a, 0] - origin[0], position[a, 1] - origin[1],
-                        position[a, 2] - origin[2]), F)  # fmt: skip
+        lever = cross(_offset(position, a, origin), F)
         for k in range(3):
             impulse[j, k] += sign * F[k]
             impulse[j, 3 + k] += sign * (n[k] - lever[k])
@@ -686,8 +656,8 @@ def _record_impulses(h, joints, sides, ints, floats, origin, position, start, mo
 @njit(allocates=False)
 def _within_limits(kind, f, q):
     """Whether a joint at position q is within its limits (up to the band in which the
-    maximal path's limit row leaves it, ``joint_rows.AT_LIMIT``)."""
+    maximal path's limit row leaves it, ``joint_rows.limit_band``)."""
     if kind == FIXED:
         return True
-    band = AT_LIMIT * (1.0 if kind == REVOLUTE else f[SCALE])
+    band = limit_band(kind, f)
     return f[LOWER] - band <= q <= f[UPPER] + band

@@ -63,17 +63,18 @@ def contact_arms(points, position, rows, body_a, body_b):
 
 
 @njit
-def _world_inverse_inertia(q, inverse_inertia_body, R, out):
-    """out = R I_body^-1 R^T for the unit quaternion q (``R`` (3, 3) is scratch)."""
+def world_tensor(q, tensor_body, R, out):
+    """out[:3, :3] = R X R^T: a body-frame tensor X (3, 3), such as I_body or its inverse,
+    in the world frame, for the unit quaternion q (``R`` (3, 3) is scratch)."""
     to_matrix_into(q, R)
     for a in range(3):
         for b in range(3):
             total = 0.0
             for c in range(3):
                 total += (
-                    R[a, 0] * inverse_inertia_body[0, c]
-                    + R[a, 1] * inverse_inertia_body[1, c]
-                    + R[a, 2] * inverse_inertia_body[2, c]
+                    R[a, 0] * tensor_body[0, c]
+                    + R[a, 1] * tensor_body[1, c]
+                    + R[a, 2] * tensor_body[2, c]
                 ) * R[b, c]
             out[a, b] = total
 
@@ -100,7 +101,7 @@ def body_velocities(count, static, orientation, linear_momentum, angular_momentu
                 v[i, a] = kinematic_velocity[i, a]
                 w[i, a] = kinematic_angular_velocity[i, a]
             continue
-        _world_inverse_inertia(orientation[i], inverse_inertia_body[i], R, inverse_inertia[i])
+        world_tensor(orientation[i], inverse_inertia_body[i], R, inverse_inertia[i])
         Ii = inverse_inertia[i]
         for a in range(3):
             v[i, a] = linear_momentum[i, a] * inverse_mass[i]

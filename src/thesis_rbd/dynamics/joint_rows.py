@@ -64,7 +64,6 @@ from thesis_rbd.dynamics.joint_set import (
 from thesis_rbd.spatial.quaternion import conjugate, mul, rotate
 
 __all__ = [
-    "AT_LIMIT",
     "axis_row",
     "axis_state",
     "body_pose",
@@ -74,11 +73,11 @@ __all__ = [
     "equality_row_count",
     "frame_axis_row",
     "has_axes",
-    "hinge_angle",
     "joint_frames",
     "joint_readout",
     "joint_row_count",
     "joint_rows",
+    "limit_band",
     "read_joints",
     "row_responses",
     "row_written",
@@ -104,7 +103,7 @@ FREE, LOCKED, LIMITED = 0, 1, 2
 # which made the matrix again on most substeps of an arm resting on a limit. The band is far
 # below any motion a step resolves, and a joint leaving its limit leaves it at its own rate
 # (``_beyond``)
-AT_LIMIT = 1e-6
+_AT_LIMIT = 1e-6
 
 
 @njit(allocates=False)
@@ -271,7 +270,7 @@ def joint_rows(kind, f, xa, qa, xb, qb, rows, first, active_limits_only):
     if f[CONE] < math.inf:
         n, angle = cone_angle(f, qa, qb)
         beyond = angle - f[CONE]
-        if active_limits_only and beyond < -AT_LIMIT:
+        if active_limits_only and beyond < -_AT_LIMIT:
             write_row(rows, k, zero, zero, zero, 0.0)
         else:
             write_row(rows, k, zero, n, (-n[0], -n[1], -n[2]), max(beyond, 0.0))
@@ -350,7 +349,7 @@ def _axis_rows(f, xa, qa, xb, qb, ra, gap, rows, first, active_limits_only):
         if axis_state(f, axis) != LIMITED:
             continue
         lin, ang_a, ang_b, position = _frame_axis(f, axis, qa, qb, fb, fa, ra, arm, gap)
-        near = AT_LIMIT * (f[SCALE] if axis < 3 else 1.0)
+        near = _AT_LIMIT * (f[SCALE] if axis < 3 else 1.0)
         at, beyond = _beyond(position, f[AXIS_LOWER + axis], f[AXIS_UPPER + axis], near)
         if active_limits_only and not at:
             write_row(rows, k, zero, zero, zero, 0.0)
@@ -438,11 +437,17 @@ def _along_line(ra, rb, gap):
 
 
 @njit(allocates=False)
+def limit_band(kind, f):
+    """How near its limit a joint's position counts as on it (``_AT_LIMIT`` in radians for an
+    angle, of the joint's scale for a travel or a length)."""
+    return _AT_LIMIT * (1.0 if kind == REVOLUTE or kind == SPHERICAL else f[SCALE])
+
+
+@njit(allocates=False)
 def _limit_row(kind, f, xa, qa, xb, qb, ra, rb, gap, rows, k, active_limits_only):
     """The limit row of a hinge, slider or distance joint (module docstring)."""
     lin, ang_a, ang_b, position = _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap)
-    near = AT_LIMIT * (1.0 if kind == REVOLUTE or kind == SPHERICAL else f[SCALE])
-    at, beyond = _beyond(position, f[LOWER], f[UPPER], near)
+    at, beyond = _beyond(position, f[LOWER], f[UPPER], limit_band(kind, f))
     if active_limits_only and not at:
         zero = (0.0, 0.0, 0.0)
         write_row(rows, k, zero, zero, zero, 0.0)
@@ -470,7 +475,7 @@ def _along_axis(kind, f, xa, qa, xb, qb, ra, rb, gap):
         return _along_line(ra, rb, gap)
     axis = rotate(qb, _vector(f, AXIS_B))
     if kind == REVOLUTE:
-        return (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2]), hinge_angle(f, qa, qb)
+        return (0.0, 0.0, 0.0), axis, (-axis[0], -axis[1], -axis[2]), _hinge_angle(f, qa, qb)
     if kind == SPHERICAL:
         t, twist = _twist(f, qa, qb, axis)
         return (0.0, 0.0, 0.0), t, (-t[0], -t[1], -t[2]), twist
@@ -533,7 +538,7 @@ def _twist(f, qa, qb, axis):
 
 
 @njit(allocates=False)
-def hinge_angle(f, qa, qb):
+def _hinge_angle(f, qa, qb):
     """Body a's angle about +axis relative to b since creation, in (-pi, pi]."""
     q0 = (f[RELATIVE_ORIENTATION], f[RELATIVE_ORIENTATION + 1], f[RELATIVE_ORIENTATION + 2],
           f[RELATIVE_ORIENTATION + 3])  # fmt: skip
@@ -584,7 +589,7 @@ def joint_readout(kind, f, xa, qa, va, wa, xb, qb, vb, wb):
                   gap[2] - position * axis_b[2])  # fmt: skip
         distance = math.sqrt(_dot(across, across))
     if kind == REVOLUTE:
-        position = hinge_angle(f, qa, qb)
+        position = _hinge_angle(f, qa, qb)
         velocity = _dot((wa[0] - wb[0], wa[1] - wb[1], wa[2] - wb[2]), axis_b)
         a = rotate(qa, _vector(f, AXIS_A))
         c = _cross(a, axis_b)
